@@ -1,0 +1,25 @@
+"""Analytic singular-integral solution of plane frictional multiple contact.
+
+Conventions (see README): p >= 0 compressive, A = 4(1 - nu^2)/E, forces per unit width,
+M = int x p dx about x = 0.  Entry points: :func:`solve_normal`, :func:`load_curve`,
+:mod:`analytic.profiles`.
+"""
+
+from analytic import profiles
+from analytic.errors import ConvergenceError, InputError
+from analytic.normal import (
+    NormalSolution,
+    load_curve,
+    solve_normal,
+    solve_normal_fixed_rotation,
+)
+
+__all__ = [
+    "ConvergenceError",
+    "InputError",
+    "NormalSolution",
+    "load_curve",
+    "profiles",
+    "solve_normal",
+    "solve_normal_fixed_rotation",
+]

@@ -1,0 +1,85 @@
+"""Applied-moment mode: the rigid rotation theta is found so that ``int x p dx = M``.
+
+The fixed-rotation problem is the vertical-indentation problem of the tilted profile
+``h0(x) - theta x``; its moment grows monotonically with theta.  We first bracket theta with
+fixed-rotation solves, refine it with Brent's method, then polish all unknowns (edges and theta)
+together with Newton so that the moment equation holds to the solver tolerance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import brentq
+
+from analytic._sie import System
+from analytic.errors import ConvergenceError, InputError
+from analytic.normal import _converge, _solve_fixed, _State, _StepFailed
+from analytic.profiles import Profile
+
+THETA_XTOL = 1e-13
+
+
+def check_tipping(profile: Profile, P: float, M: float) -> float:
+    """The load centre ``x = M/P`` must lie inside the profile's support, else the body tips."""
+    xe = M / P
+    lo, hi = profile.support
+    if not lo < xe < hi:
+        raise InputError(f"M={M!r} tips the body off: the load centre M/P={xe:.6g} must lie "
+                         f"inside the profile's support ({lo:.6g}, {hi:.6g})")
+    return xe
+
+
+def _moment_at(profile: Profile, P: float, A: float, theta: float):
+    try:
+        st, sys_ = _solve_fixed(profile, P, A, theta)
+    except ConvergenceError:
+        return None
+    return st, sys_, sys_.load_and_moment()[1]
+
+
+def _bracket(profile, P, A, M, theta0, step):
+    first = _moment_at(profile, P, A, theta0)
+    if first is None:
+        raise ConvergenceError("fixed-rotation solve failed at the initial rotation",
+                               {"theta": theta0})
+    f0 = first[2] - M
+    direction = -np.sign(f0) if f0 != 0 else 1.0
+    lo_t, lo_f, best = theta0, f0, first
+    for _ in range(60):
+        t = lo_t + direction * step
+        trial = _moment_at(profile, P, A, t)
+        if trial is None:
+            step *= 0.5
+            continue
+        f = trial[2] - M
+        if np.sign(f) != np.sign(lo_f):
+            return (lo_t, t) if lo_t < t else (t, lo_t), trial
+        lo_t, lo_f, best = t, f, trial
+        step *= 2.0
+    raise InputError(f"M={M!r} cannot be carried: no rotation gives that moment "
+                     "(the body tips off its contact)")
+
+
+def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[_State, System]:
+    xe = check_tipping(profile, P, M)
+    slope = profile.dh0(np.array([xe]))[0]
+    theta0 = float(slope) if np.isfinite(slope) else 0.0
+    scale = abs(theta0) + A * P / profile.scale + 1e-12
+    (t_lo, t_hi), _ = _bracket(profile, P, A, M, theta0, 0.25 * scale)
+    theta = brentq(lambda t: _moment_or_nan(profile, P, A, t) - M, t_lo, t_hi,
+                   xtol=THETA_XTOL * max(scale, 1.0), rtol=1e-14)
+    st, sys_ = _solve_fixed(profile, P, A, theta)
+    try:
+        return _converge(st, profile, A, M)
+    except _StepFailed as exc:
+        if abs(sys_.load_and_moment()[1] - M) <= 1e-10 * P * st.ell:
+            return st, sys_
+        raise ConvergenceError(f"moment polish failed: {exc}", {"theta": theta}) from exc
+
+
+def _moment_or_nan(profile: Profile, P: float, A: float, theta: float) -> float:
+    r = _moment_at(profile, P, A, theta)
+    if r is None:
+        raise ConvergenceError("fixed-rotation solve failed inside the rotation bracket",
+                               {"theta": theta})
+    return r[2]

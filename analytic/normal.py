@@ -1,0 +1,752 @@
+"""Stage-1 (normal) problem for any number of contact zones: paper Sections 2-4.
+
+Public entry points: :func:`solve_normal`, :func:`load_curve` and the result
+:class:`NormalSolution`.  The equations (consistency Eq. 12/14, rigid interconnection Eq. 17,
+equilibrium, moment) are assembled in :mod:`analytic._sie`; this module solves them by Newton's
+method with continuation in the load from the first touch, and keeps the contact topology
+admissible (zones appear, merge, split; singular edges pin at corners or release).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+
+from analytic._sie import Layout, System
+from analytic.errors import ConvergenceError, InputError
+from analytic.profiles import Profile
+
+NEWTON_TOL = 1e-13          # scaled residual; edges then agree to ~1e-12 relative
+NEWTON_MAXIT = 40
+FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
+ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
+MAX_TOPOLOGY_CHANGES = 12
+START_FRACTION = 2e-3       # first-touch zone size relative to the local feature size
+
+
+# ---------------------------------------------------------------------------------------------
+# result
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class NormalSolution:
+    """Solution of the normal problem (paper Table 1, stage 1; p >= 0 compressive).
+
+    Attributes
+    ----------
+    zones : list of ``(a, b)`` contact zones, ordered by x.
+    singular : list of ``(left, right)`` flags per zone: True where the edge is singular (a
+        sharp corner; pressure ~ 1/sqrt), False where nonsingular (pressure -> 0).
+    zone_loads : load carried by each zone (force per unit width).
+    P, M : total load and moment ``M = int x p dx`` about x = 0.
+    theta : rigid rotation of body 1 (``h = h0 - theta x``); 0 in vertical indentation.
+    mode : ``"vertical"`` (rotation locked, M output) or ``"moment"`` (M given, theta output).
+    A : composite compliance ``4 (1 - nu^2)/E``.
+    residuals : the scaled residuals of the equations solved and the self-checks (equilibrium
+        from the integrated pressure, min pressure, min gap).
+    """
+
+    zones: list[tuple[float, float]]
+    singular: list[tuple[bool, bool]]
+    zone_loads: list[float]
+    P: float
+    M: float
+    theta: float
+    mode: str
+    A: float
+    residuals: dict[str, float]
+    profile: Profile = field(repr=False)
+    _system: System = field(repr=False, compare=False)
+
+    @property
+    def n_zones(self) -> int:
+        return len(self.zones)
+
+    @property
+    def extent(self) -> float:
+        """Sum of the zone widths."""
+        return float(sum(b - a for a, b in self.zones))
+
+    def pressure(self, x: np.ndarray | float) -> np.ndarray:
+        """Contact pressure ``p(x) >= 0`` (vectorised; 0 outside the zones)."""
+        x = np.atleast_1d(np.asarray(x, float))
+        out = np.zeros(x.shape)
+        inside = _inside(x, self._system.layout.edges)
+        if np.any(inside):
+            out[inside] = self._system.pressure_inside(x[inside])
+        return out
+
+    def gap(self, x: np.ndarray | float) -> np.ndarray:
+        """Deformed gap ``g(x) >= 0`` (0 in the zones; ``+inf`` where the profile is undefined)."""
+        return deformed_gap(self._system, np.atleast_1d(np.asarray(x, float)))
+
+
+def _inside(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    z = edges.reshape(-1, 2)
+    return np.any((x[:, None] > z[:, 0]) & (x[:, None] < z[:, 1]), axis=1)
+
+
+# ---------------------------------------------------------------------------------------------
+# deformed gap outside the zones
+# ---------------------------------------------------------------------------------------------
+def deformed_gap(sys_: System, x: np.ndarray) -> np.ndarray:
+    """``g(x) = h(x) - h(edge) + int_edge^x w'`` from the nearest edge on the same side."""
+    edges = sys_.layout.edges
+    out = np.zeros(x.shape)
+    inside = _inside(x, edges) | np.isin(x, edges)
+    h = sys_.profile.h0(x) - sys_.theta * x
+    nearest = _nearest_outer_edge(x, edges)
+    for i in np.unique(nearest[~inside]):
+        m = (~inside) & (nearest == i)
+        finite = m & np.isfinite(h)
+        out[m & ~np.isfinite(h)] = np.inf
+        if np.any(finite):
+            out[finite] = h[finite] - sys_.h_at_edge(i) + sys_.wprime_integral(i, x[finite])
+    return out
+
+
+def _nearest_outer_edge(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Index of the edge bounding the gap (or outer region) that holds each x, nearest side."""
+    k = np.searchsorted(edges, x)  # x in (edges[k-1], edges[k])
+    idx = np.where(k == 0, 0, np.where(k >= edges.size, edges.size - 1, k))
+    gap = (k > 0) & (k < edges.size) & (k % 2 == 0)  # between b_{m} (k-1) and a_{m+1} (k)
+    left_nearer = gap & (np.abs(x - edges[np.maximum(k - 1, 0)])
+                         <= np.abs(edges[np.minimum(k, edges.size - 1)] - x))
+    return np.where(left_nearer, k - 1, idx)
+
+
+# ---------------------------------------------------------------------------------------------
+# unknowns and residuals
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Mode:
+    """Which quantities are unknown: edges (free ones), beta, theta; driver = fixed free edge."""
+
+    P: float | None           # None: P is an output (driver mode)
+    M: float | None           # None: theta fixed
+    driver: int | None = None
+
+
+@dataclass
+class _State:
+    layout: Layout
+    beta: np.ndarray
+    theta: float
+    P: float
+    xc: float
+    ell: float
+
+
+def _free_edges(layout: Layout, mode: _Mode) -> np.ndarray:
+    free = np.flatnonzero(~layout.pinned)
+    return free[free != mode.driver] if mode.driver is not None else free
+
+
+def _n_beta_free(layout: Layout, mode: _Mode) -> int:
+    nb = max(layout.n - layout.e, 0)
+    return nb if mode.P is None else max(nb - 1, 0)
+
+
+def _pack(st: _State, mode: _Mode) -> np.ndarray:
+    free = _free_edges(st.layout, mode)
+    z = [(st.layout.edges[free] - st.xc) / st.ell, st.beta[: _n_beta_free(st.layout, mode)]]
+    if mode.M is not None:
+        z.append(np.array([st.theta]))
+    return np.concatenate(z)
+
+
+def _unpack(z: np.ndarray, st: _State, mode: _Mode, A: float) -> _State:
+    free = _free_edges(st.layout, mode)
+    edges = st.layout.edges.copy()
+    edges[free] = st.xc + st.ell * z[: free.size]
+    nbf = _n_beta_free(st.layout, mode)
+    beta = st.beta.copy()
+    beta[:nbf] = z[free.size: free.size + nbf]
+    nb = max(st.layout.n - st.layout.e, 0)
+    if mode.P is not None and nb > 0:
+        beta[nb - 1] = -A * mode.P
+    theta = float(z[-1]) if mode.M is not None else st.theta
+    return _State(st.layout.with_edges(edges), beta, theta, st.P, st.xc, st.ell)
+
+
+def _residual(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[np.ndarray, System]:
+    lay = st.layout
+    sys_ = System.build(lay, profile, A, st.theta, st.xc, st.beta)
+    n, e = lay.n, lay.e
+    rows: list[float] = []
+    P_ref = mode.P if mode.P is not None else max(abs(st.P), 1e-300)
+    slope = float(np.mean(np.abs(sys_.sq.dh))) if sys_.sq.dh.size else 0.0
+    g_scale = A * P_ref + slope * st.ell + 1e-300
+    if e > n:
+        mu, norm = sys_.moments(e - n - 1)
+        rows.extend(mu / (norm + 1e-300))
+    if mode.P is not None and e >= n:
+        rows.append(sys_.load_and_moment()[0] / mode.P - 1.0)
+    rows.extend(sys_.interconnection(m) / g_scale for m in range(n - 1))
+    if mode.M is not None:
+        rows.append((sys_.load_and_moment()[1] - mode.M) / (P_ref * st.ell))
+    return np.asarray(rows, float), sys_
+
+
+def _feasible(st: _State, profile: Profile) -> bool:
+    e = st.layout.edges
+    if not np.all(np.isfinite(e)) or np.any(np.diff(e) <= 1e-14 * st.ell):
+        return False
+    lo, hi = profile.support
+    if e[0] < lo - 1e-14 * st.ell or e[-1] > hi + 1e-14 * st.ell:
+        return False
+    inner = profile.h0(e[~st.layout.pinned])
+    return bool(np.all(np.isfinite(inner)))
+
+
+class _NewtonFailed(Exception):
+    def __init__(self, msg: str, diag: dict) -> None:
+        super().__init__(msg)
+        self.diag = diag
+
+
+def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State, np.ndarray]:
+    z = _pack(st, mode)
+    F, _ = _residual(st, mode, profile, A)
+    if z.size != F.size:
+        raise AssertionError(f"unknowns {z.size} != equations {F.size}")
+    if z.size == 0:
+        return st, F
+    norm = np.max(np.abs(F))
+    for it in range(NEWTON_MAXIT):
+        if norm < NEWTON_TOL:
+            return st, F
+        J = _jacobian(z, F, st, mode, profile, A)
+        try:
+            dz = np.linalg.solve(J, -F)
+        except np.linalg.LinAlgError as exc:
+            raise _NewtonFailed("singular Jacobian", {"residual": norm, "iteration": it}) from exc
+        st, z, F, new_norm = _line_search(st, z, dz, norm, mode, profile, A)
+        if new_norm >= norm and new_norm > 1e3 * NEWTON_TOL:
+            raise _NewtonFailed("no descent", {"residual": norm, "iteration": it})
+        if np.max(np.abs(dz)) < 1e-15 and new_norm < 1e3 * NEWTON_TOL:
+            return st, F
+        norm = new_norm
+    if norm < 1e3 * NEWTON_TOL:
+        return st, F
+    raise _NewtonFailed("too many iterations", {"residual": norm, "iteration": NEWTON_MAXIT})
+
+
+def _jacobian(z, F, st, mode, profile, A) -> np.ndarray:
+    J = np.empty((F.size, z.size))
+    for j in range(z.size):
+        h = FD_STEP * max(1.0, abs(z[j])) if j < z.size else FD_STEP
+        zp = z.copy()
+        zp[j] += h
+        trial = _unpack(zp, st, mode, A)
+        if not _feasible(trial, profile):
+            h, zp = -h, z.copy()
+            zp[j] += h
+            trial = _unpack(zp, st, mode, A)
+        J[:, j] = (_residual(trial, mode, profile, A)[0] - F) / h
+    return J
+
+
+def _line_search(st, z, dz, norm, mode, profile, A):
+    lam = 1.0
+    for _ in range(30):
+        zt = z + lam * dz
+        trial = _unpack(zt, st, mode, A)
+        if _feasible(trial, profile):
+            Ft, _ = _residual(trial, mode, profile, A)
+            nt = float(np.max(np.abs(Ft)))
+            if np.isfinite(nt) and (nt < (1 - 1e-4 * lam) * norm or nt < NEWTON_TOL):
+                return trial, zt, Ft, nt
+        lam *= 0.5
+    return st, z, _residual(st, mode, profile, A)[0], norm
+
+
+# ---------------------------------------------------------------------------------------------
+# first touch
+# ---------------------------------------------------------------------------------------------
+def _touch_set(profile: Profile, theta: float) -> list[tuple[float, float, float]]:
+    mins = profile.local_minima(theta)
+    if not mins:
+        raise InputError(f"the profile {profile.name} never touches: h0(x) - theta x has no minimum"
+                         f" (theta={theta!r})")
+    low = min(m[2] for m in mins)
+    tol = 1e-12 * (profile.scale + abs(low))
+    return [m for m in mins if m[2] <= low + tol]
+
+
+def _start_zone(profile: Profile, lo: float, hi: float, size: float) -> tuple[list, list]:
+    """Tiny zone around a first-touch point / flat face: edges and singular flags."""
+    corners = profile.corners
+    at_lo, at_hi = lo in corners, hi in corners
+    if lo == hi:
+        if at_lo:
+            # a corner touches first: pinned corner, free edge inwards
+            inward = 1.0 if np.isfinite(profile.h0(np.array([lo + size]))[0]) else -1.0
+            pair = sorted([lo, lo + inward * size])
+            return pair, [pair[0] == lo, pair[1] == lo]
+        return [lo - size, hi + size], [False, False]
+    a = lo if at_lo else lo - size
+    b = hi if at_hi else hi + size
+    return [a, b], [at_lo, at_hi]
+
+
+def _feature_size(profile: Profile, x: float, touches: list) -> float:
+    marks = [m[0] for m in touches] + [m[1] for m in touches] + list(profile.kinks)
+    marks += list(profile.corners)
+    d = [abs(x - q) for q in marks if abs(x - q) > 1e-12 * profile.scale]
+    return min([profile.scale, *d])
+
+
+def _initial_state(profile: Profile, A: float, theta: float, P_target: float) -> _State:
+    touches = _touch_set(profile, theta)
+    frac = START_FRACTION
+    for _ in range(8):
+        edges, pinned = [], []
+        for lo, hi, _v in touches:
+            size = frac * _feature_size(profile, 0.5 * (lo + hi), touches)
+            e2, p2 = _start_zone(profile, lo, hi, size)
+            edges += e2
+            pinned += p2
+        layout = Layout(np.asarray(edges, float), np.asarray(pinned, bool))
+        st = _fresh_state(layout, theta, P_target)
+        st = _solve_driver(st, profile, A, P_target)
+        if st.P <= P_target:
+            return st
+        frac *= 0.1
+    raise ConvergenceError("could not find a first-touch state below the requested load",
+                           {"P_target": P_target})
+
+
+def _fresh_state(layout: Layout, theta: float, P: float) -> _State:
+    e = layout.edges
+    ell = max(float(e[-1] - e[0]), 1e-300)
+    return _State(layout, np.zeros(max(layout.n - layout.e, 0)), theta, P,
+                  float(0.5 * (e[0] + e[-1])), ell)
+
+
+def _solve_driver(st: _State, profile: Profile, A: float, P_target: float) -> _State:
+    """First state: one free edge held, the load is an output (displacement-like control)."""
+    lay = st.layout
+    free = np.flatnonzero(~lay.pinned)
+    if free.size == 0:
+        st.P = P_target
+        st.beta = _beta_for(st, A, P_target)
+        st, _ = _newton(st, _Mode(P_target, None), profile, A)
+        return st
+    mode = _Mode(None, None, driver=int(free[-1]))
+    if lay.e < lay.n:
+        st.beta[-1] = -A * P_target * 1e-6
+    try:
+        st, _ = _newton(st, mode, profile, A)
+    except _NewtonFailed as exc:
+        raise ConvergenceError(f"first-touch solve failed: {exc}", exc.diag) from exc
+    sys_ = System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
+    st.P = sys_.load_and_moment()[0]
+    if not st.P > 0:
+        raise ConvergenceError("first-touch state has a non-positive load", {"P": st.P})
+    return st
+
+
+def _beta_for(st: _State, A: float, P: float) -> np.ndarray:
+    beta = st.beta.copy()
+    if beta.size:
+        beta[-1] = -A * P
+    return beta
+
+
+# ---------------------------------------------------------------------------------------------
+# admissibility and topology updates
+# ---------------------------------------------------------------------------------------------
+def _check_points_inside(edges: np.ndarray, n_pts: int = 24) -> np.ndarray:
+    z = edges.reshape(-1, 2)
+    t = 0.5 * (1 - np.cos(np.pi * (np.arange(n_pts) + 0.5) / n_pts))
+    return (z[:, :1] + (z[:, 1:] - z[:, :1]) * t[None, :]).ravel()
+
+
+def _check_points_outside(st: _State, profile: Profile) -> np.ndarray:
+    e = st.layout.edges
+    pts = []
+    for m in range(st.layout.n - 1):
+        b, a = e[2 * m + 1], e[2 * m + 2]
+        t = 0.5 * (1 - np.cos(np.pi * (np.arange(16) + 0.5) / 16))
+        pts.append(b + (a - b) * t)
+    span = max(e[-1] - e[0], profile.scale)
+    d = span * np.geomspace(1e-3, 3.0, 24)
+    pts += [e[0] - d, e[-1] + d]
+    mins = [0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
+    pts.append(np.asarray(mins + list(profile.corners) + list(profile.kinks), float))
+    x = np.concatenate(pts)
+    lo, hi = profile.support
+    x = x[(x >= lo) & (x <= hi)]
+    return x[~_inside(x, e) & ~np.isin(x, e)]
+
+
+@dataclass(frozen=True)
+class _Event:
+    kind: str       # "add", "merge", "split", "release", "pin"
+    where: float
+    index: int = -1
+
+
+def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event | None:
+    P_scale = st.P / max(st.layout.edges[1::2].sum() - st.layout.edges[0::2].sum(), 1e-300)
+    xi = _check_points_inside(st.layout.edges)
+    p = sys_.pressure_inside(xi)
+    if np.min(p) < -ADMISSIBLE_TOL * P_scale:
+        return _pressure_event(st, xi, p)
+    xo = _check_points_outside(st, profile)
+    if xo.size:
+        g = deformed_gap(sys_, xo)
+        g_scale = A * st.P + 1e-300
+        if np.min(g) < -ADMISSIBLE_TOL * g_scale:
+            return _gap_event(st, xo[int(np.argmin(g))])
+    return None
+
+
+def _pressure_event(st: _State, xi: np.ndarray, p: np.ndarray) -> _Event:
+    x = float(xi[int(np.argmin(p))])
+    e = st.layout.edges
+    k = int(np.searchsorted(e, x) // 2)
+    a, b = e[2 * k], e[2 * k + 1]
+    near = min(x - a, b - x) < 0.05 * (b - a)
+    i_edge = 2 * k if x - a < b - x else 2 * k + 1
+    if near and st.layout.pinned[i_edge]:
+        return _Event("release", float(e[i_edge]), i_edge)
+    if near:
+        return _Event("shrink", x, i_edge)
+    return _Event("split", x, k)
+
+
+def _gap_event(st: _State, x: float) -> _Event:
+    e = st.layout.edges
+    k = int(np.searchsorted(e, x))
+    if 0 < k < e.size and k % 2 == 0:
+        b, a = e[k - 1], e[k]
+        if min(x - b, a - x) < 0.02 * (a - b):
+            return _Event("merge", x, k // 2 - 1)
+    return _Event("add", x)
+
+
+def _apply_event(st: _State, ev: _Event, sys_: System, profile: Profile) -> _State:
+    edges = list(st.layout.edges)
+    pinned = list(st.layout.pinned)
+    if ev.kind == "merge":
+        m = ev.index
+        del edges[2 * m + 1: 2 * m + 3]
+        del pinned[2 * m + 1: 2 * m + 3]
+    elif ev.kind == "add":
+        lo, hi = _negative_gap_interval(sys_, ev.where, profile)
+        k = int(np.searchsorted(edges, ev.where))
+        edges[k:k] = [lo, hi]
+        pinned[k:k] = [lo in profile.corners, hi in profile.corners]
+    elif ev.kind == "split":
+        k = ev.index
+        a, b = edges[2 * k], edges[2 * k + 1]
+        w = 0.02 * (b - a)
+        edges[2 * k + 1: 2 * k + 1] = [ev.where - w, ev.where + w]
+        pinned[2 * k + 1: 2 * k + 1] = [False, False]
+    elif ev.kind == "release":
+        i = ev.index
+        a, b = edges[i - (i % 2)], edges[i - (i % 2) + 1]
+        edges[i] += (0.02 if i % 2 == 0 else -0.02) * (b - a)
+        pinned[i] = False
+    elif ev.kind == "shrink":
+        i = ev.index
+        a, b = edges[i - (i % 2)], edges[i - (i % 2) + 1]
+        edges[i] += (0.05 if i % 2 == 0 else -0.05) * (b - a)
+    layout = Layout(np.asarray(edges, float), np.asarray(pinned, bool))
+    new = _fresh_state(layout, st.theta, st.P)
+    return new
+
+
+def _negative_gap_interval(sys_: System, x: float, profile: Profile) -> tuple[float, float]:
+    """The overlap ``{g < 0}`` around x: the free-interpenetration guess of the new zone."""
+    def g(t: float) -> float:
+        return float(deformed_gap(sys_, np.array([t]))[0])
+
+    e = sys_.layout.edges
+    k = int(np.searchsorted(e, x))
+    left_wall = e[k - 1] if k > 0 else profile.support[0]
+    right_wall = e[k] if k < e.size else profile.support[1]
+    span = max(e[-1] - e[0], profile.scale)
+    lo = _walk(g, x, max(left_wall, x - 2 * span), profile)
+    hi = _walk(g, x, min(right_wall, x + 2 * span), profile)
+    if hi - lo < 1e-9 * span:
+        lo, hi = x - 1e-6 * span, x + 1e-6 * span
+    return lo, hi
+
+
+def _walk(g, x: float, wall: float, profile: Profile) -> float:
+    ts = np.linspace(x, wall, 65)[1:]
+    prev = x
+    for t in ts:
+        gt = g(t) if np.isfinite(profile.h0(np.array([t]))[0]) else np.inf
+        if gt >= 0:
+            if not np.isfinite(gt):
+                corner = [c for c in profile.corners if min(prev, t) <= c <= max(prev, t)]
+                return corner[0] if corner else prev
+            return brentq(g, prev, t, xtol=1e-14 * max(1.0, abs(t)))
+        prev = t
+    return prev
+
+
+# ---------------------------------------------------------------------------------------------
+# continuation in P at fixed theta
+# ---------------------------------------------------------------------------------------------
+class _StepFailed(Exception):
+    pass
+
+
+def _predict(st: _State, prev: _State | None, P_next: float) -> _State:
+    edges = st.layout.edges.copy()
+    free = ~st.layout.pinned
+    if prev is not None and prev.layout.edges.shape == edges.shape and \
+            np.array_equal(prev.layout.pinned, st.layout.pinned) and prev.P != st.P:
+        r = np.log(P_next / st.P) / np.log(st.P / prev.P)
+        guess = edges + r * (edges - prev.layout.edges)
+    else:
+        z = edges.reshape(-1, 2)
+        mid = z.mean(1, keepdims=True)
+        guess = (mid + (z - mid) * np.sqrt(P_next / st.P)).ravel()
+    edges[free] = guess[free]
+    trial = Layout(edges, st.layout.pinned)
+    beta = st.beta * (P_next / st.P) if st.beta.size else st.beta
+    new = _State(trial, beta, st.theta, P_next, st.xc, st.ell)
+    if np.any(np.diff(edges) <= 0):
+        new = _State(st.layout, beta, st.theta, P_next, st.xc, st.ell)
+    return new
+
+
+def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[_State, System]:
+    history = []
+    for _ in range(MAX_TOPOLOGY_CHANGES):
+        st = _recentre(st)
+        try:
+            st, F = _newton(st, _Mode(st.P, M), profile, A)
+        except _NewtonFailed as exc:
+            raise _StepFailed(str(exc)) from exc
+        st = _pin_corners(st, profile)
+        sys_ = System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
+        ev = _find_event(st, sys_, profile, A)
+        if ev is None:
+            return st, sys_
+        history.append(ev)
+        st = _apply_event(st, ev, sys_, profile)
+        st.beta = _beta_for(st, A, st.P)
+    raise _StepFailed(f"topology did not settle: {history}")
+
+
+def _recentre(st: _State) -> _State:
+    e = st.layout.edges
+    xc = float(0.5 * (e[0] + e[-1]))
+    ell = max(float(e[-1] - e[0]), 1e-300)
+    beta = _shift_poly(st.beta, xc - st.xc)
+    return _State(st.layout, beta, st.theta, st.P, xc, ell)
+
+
+def _shift_poly(beta: np.ndarray, d: float) -> np.ndarray:
+    """Coefficients of T in the coordinate shifted by d: T(x) = sum b_k (x - xc_old)^k."""
+    if beta.size <= 1 or d == 0.0:
+        return beta.copy()
+    p = np.polynomial.Polynomial(beta)
+    return np.polynomial.Polynomial(p(np.polynomial.Polynomial([d, 1.0])).coef).coef[: beta.size]
+
+
+def _pin_corners(st: _State, profile: Profile) -> _State:
+    """A free edge sitting on a corner becomes singular there."""
+    e, pinned = st.layout.edges.copy(), st.layout.pinned.copy()
+    for i in np.flatnonzero(~pinned):
+        for c in profile.corners:
+            if abs(e[i] - c) < 1e-10 * st.ell:
+                e[i], pinned[i] = c, True
+    if np.array_equal(pinned, st.layout.pinned):
+        return st
+    return _State(Layout(e, pinned), np.zeros(max(pinned.size // 2 - int((~pinned).sum()), 0)),
+                  st.theta, st.P, st.xc, st.ell)
+
+
+def _continue(st: _State, P_target: float, profile: Profile, A: float,
+              prev: _State | None = None) -> tuple[_State, System, _State | None]:
+    ratio = 4.0
+    sys_ = None
+    guard = 0
+    while True:
+        guard += 1
+        if guard > 400:
+            raise ConvergenceError("continuation did not reach the load", {"P": st.P})
+        P_next = P_target if st.P * ratio >= P_target else st.P * ratio
+        try:
+            trial = _predict(st, prev, P_next)
+            new, sys_ = _converge(trial, profile, A, None)
+        except _StepFailed as exc:
+            merged = _try_merge(st, P_next, profile, A)
+            if merged is not None:
+                prev, (st, sys_) = None, merged
+                if P_next == P_target:
+                    return st, sys_, prev
+                continue
+            ratio = np.sqrt(ratio)
+            if ratio < 1 + 1e-7:
+                raise ConvergenceError(f"continuation stalled at P={st.P:.6g}: {exc}",
+                                       {"P_reached": st.P, "P_target": P_target,
+                                        "zones": st.layout.zones()}) from exc
+            continue
+        prev, st = st, new
+        if P_next == P_target:
+            return st, sys_, prev
+        ratio = min(ratio * ratio, 16.0)
+
+
+MERGE_GAP = 0.05  # try merging two zones once their gap is below this fraction of their widths
+
+
+def _try_merge(st: _State, P_next: float, profile: Profile, A: float):
+    """Merge the narrowest gap if it is closing and the step beyond it fails."""
+    e = st.layout.edges
+    if st.layout.n < 2:
+        return None
+    gaps = e[2::2] - e[1:-1:2]
+    widths = np.minimum(e[1:-1:2] - e[0:-2:2], e[3::2] - e[2::2])
+    m = int(np.argmin(gaps / widths))
+    if gaps[m] > MERGE_GAP * widths[m]:
+        return None
+    keep = np.ones(e.size, bool)
+    keep[[2 * m + 1, 2 * m + 2]] = False
+    layout = Layout(e[keep], st.layout.pinned[keep])
+    trial = _fresh_state(layout, st.theta, P_next)
+    trial.beta = _beta_for(trial, A, P_next)
+    try:
+        return _converge(trial, profile, A, None)
+    except _StepFailed:
+        return None
+
+
+# ---------------------------------------------------------------------------------------------
+# public API
+# ---------------------------------------------------------------------------------------------
+def _validate(profile: Profile, P: float, A: float) -> None:
+    if not isinstance(profile, Profile):
+        raise InputError(f"profile must be an analytic.profiles.Profile, got {type(profile)!r}")
+    if not np.isfinite(A) or A <= 0:
+        raise InputError(f"A={A!r} is not allowed: need A = 4(1 - nu^2)/E > 0")
+    if not np.isfinite(P) or P <= 0:
+        raise InputError(f"P={P!r} is not allowed: need a finite load P > 0")
+
+
+def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
+                 ) -> NormalSolution:
+    """Solve the normal contact problem at load P (paper Sections 2-4, any number of zones).
+
+    ``M=None``: vertical indentation (rotation locked; the moment is an output).  ``M`` given:
+    applied moment about x = 0; the rigid rotation ``theta`` is an output.
+    """
+    P, A = float(P), float(A)
+    _validate(profile, P, A)
+    if M is None:
+        st, sys_ = _solve_fixed(profile, P, A, 0.0)
+        return _finish(st, sys_, profile, A, "vertical")
+    from analytic._moment import solve_with_moment
+
+    st, sys_ = solve_with_moment(profile, P, A, float(M))
+    return _finish(st, sys_, profile, A, "moment")
+
+
+def _solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[_State, System]:
+    st = _initial_state(profile, A, theta, P)
+    st, sys_, _ = _continue(st, P, profile, A)
+    return st, sys_
+
+
+def solve_normal_fixed_rotation(profile: Profile, P: float, A: float, theta: float
+                                ) -> NormalSolution:
+    """Normal problem with the rigid rotation prescribed (the stick-zone reduced problem)."""
+    P, A = float(P), float(A)
+    _validate(profile, P, A)
+    st, sys_ = _solve_fixed(profile, P, A, float(theta))
+    return _finish(st, sys_, profile, A, "fixed-rotation")
+
+
+def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | None = None
+               ) -> list[NormalSolution]:
+    """Solutions along increasing loads, reusing the continuation (M: moment at every load)."""
+    loads = np.asarray(loads, float)
+    if loads.ndim != 1 or loads.size == 0:
+        raise InputError("loads must be a non-empty 1-D sequence")
+    order = np.argsort(loads)
+    out: list[NormalSolution | None] = [None] * loads.size
+    if M is not None:
+        for i in order:
+            out[i] = solve_normal(profile, loads[i], A, M)
+        return out  # type: ignore[return-value]
+    _validate(profile, float(loads[order[0]]), A)
+    st = _initial_state(profile, A, 0.0, float(loads[order[0]]))
+    prev = None
+    for i in order:
+        st, sys_, prev = _continue(st, float(loads[i]), profile, A, prev)
+        out[i] = _finish(st, sys_, profile, A, "vertical")
+    return out  # type: ignore[return-value]
+
+
+def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> NormalSolution:
+    zl = zone_loads(sys_)
+    P_calc, M_calc = sys_.load_and_moment()
+    F, _ = _residual(st, _Mode(st.P, None), profile, A)
+    xi = _check_points_inside(st.layout.edges, 64)
+    xo = _check_points_outside(st, profile)
+    res = {
+        "equations": float(np.max(np.abs(F))) if F.size else 0.0,
+        "equilibrium": abs(sum(zl) - st.P) / st.P,
+        "min_pressure": float(np.min(sys_.pressure_inside(xi))),
+        "min_gap": float(np.min(deformed_gap(sys_, xo))) if xo.size else 0.0,
+    }
+    singular = [tuple(bool(v) for v in pr) for pr in st.layout.pinned.reshape(-1, 2)]
+    return NormalSolution(st.layout.zones(), singular, zl, st.P, M_calc, st.theta, mode, A,
+                          res, profile, sys_)
+
+
+# ---------------------------------------------------------------------------------------------
+# per-zone loads and moments (contour integrals of Phi = W Psi)
+# ---------------------------------------------------------------------------------------------
+CONTOUR_NODES = 256
+
+
+def zone_loads(sys_: System) -> list[float]:
+    """``int_{L_k} p dx`` per zone.
+
+    With ``Phi(z) = (1/2 pi i) int_L p(s)/(s - z) ds = W(z) Psi(z)`` analytic off L, the load of
+    zone k is ``-oint_{C_k} Phi dz`` over an ellipse around that zone only.  The trapezoidal rule
+    converges geometrically and never touches the kinks or edges on the real axis.
+    """
+    return [float(v.real) for v in _zone_contour_integrals(sys_, 0)]
+
+
+def _zone_contour_integrals(sys_: System, power: int) -> list[complex]:
+    lay = sys_.layout
+    e = lay.edges
+    t = 2 * np.pi * np.arange(CONTOUR_NODES) / CONTOUR_NODES
+    out = []
+    for k in range(lay.n):
+        a, b = e[2 * k], e[2 * k + 1]
+        left = a - e[2 * k - 1] if k > 0 else b - a
+        right = e[2 * k + 2] - b if k + 1 < lay.n else b - a
+        c, rx = 0.5 * (a + b), 0.5 * (b - a)
+        dx = 0.5 * min(left, right, b - a)
+        ry = np.sqrt((rx + dx) ** 2 - rx**2) if dx > 0 else rx
+        z = c + (rx + dx) * np.cos(t) + 1j * ry * np.sin(t)
+        dz = (-(rx + dx) * np.sin(t) + 1j * ry * np.cos(t)) * (2 * np.pi / CONTOUR_NODES)
+        phi = _phi(sys_, z)
+        out.append(-np.sum(phi * z**power * dz))
+    return out
+
+
+def _phi(sys_: System, z: np.ndarray) -> np.ndarray:
+    """``Phi(z) = W(z) Psi(z)`` off the real axis (principal branches; analytic off L)."""
+    lay = sys_.layout
+    W = np.prod(np.sqrt(z[:, None] - lay.edges[None, :]) ** (2 * lay.eps[None, :]), axis=1)
+    sq = sys_.sq
+    zh = z - sys_.xc
+    cauchy = (sq.dh * sq.Omega)[None, :] / (sq.s[None, :] - zh[:, None])
+    T = np.polyval(sys_.beta[::-1], zh) if sys_.beta.size else 0.0
+    return W * (cauchy.sum(1) + T) / (2j * np.pi * sys_.A)

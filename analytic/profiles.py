@@ -1,0 +1,426 @@
+"""Initial-gap profiles ``h0(x) >= 0`` of the upper body (body 1) against the flat body 2.
+
+A profile is a sorted set of *pieces*.  Each piece is the profile on ``[lo, hi]`` and carries an
+analytic formula that stays valid a little beyond its interval (``reach``): the singular-integral
+solver uses that continuation to remove near-singular Cauchy integrals at the contact edges.
+
+Between two touching pieces the profile is continuous and its slope jumps (a *kink*, e.g. a wedge
+apex).  Where a piece ends and the neighbour is higher (``h0 = +inf`` beyond a sharp punch
+corner, or a step) the end is a *corner*: a contact edge can sit there as a singular edge.
+Units: lengths in any consistent unit, ``h0`` in the same unit, slopes dimensionless.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.optimize import brentq
+
+from analytic.errors import InputError
+
+Func = Callable[[np.ndarray], np.ndarray]
+INF = float("inf")
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One analytic piece of a profile, the profile on ``[lo, hi]``.
+
+    ``h, dh, d2h`` are vectorised and valid on ``reach`` (which contains ``[lo, hi]``).
+    ``flat`` marks ``dh == 0`` identically (a flat punch face).
+    """
+
+    lo: float
+    hi: float
+    h: Func
+    dh: Func
+    d2h: Func
+    reach: tuple[float, float]
+    flat: bool = False
+
+    def shifted(self, lift: float) -> Piece:
+        """The same piece raised by ``lift``."""
+        h = self.h
+        return replace(self, h=lambda x: h(x) + lift)
+
+    def clipped(self, lo: float, hi: float) -> Piece:
+        """The same formula restricted to ``[lo, hi]``."""
+        return replace(self, lo=lo, hi=hi)
+
+
+@dataclass(frozen=True)
+class Profile:
+    """Initial gap ``h0(x)`` (``+inf`` where the bodies cannot touch).
+
+    Attributes: ``pieces`` (sorted, non-overlapping), ``corners`` (x of sharp corners: possible
+    singular edges), ``kinks`` (x of slope jumps inside the support), ``scale`` (a characteristic
+    length, used for tolerances), ``name`` and ``params`` (the constructor and its arguments).
+    """
+
+    pieces: tuple[Piece, ...]
+    corners: tuple[float, ...]
+    kinks: tuple[float, ...]
+    scale: float
+    name: str = "profile"
+    params: dict = field(default_factory=dict, compare=False)
+
+    # -- evaluation -------------------------------------------------------------------------
+    def piece_index(self, x: np.ndarray) -> np.ndarray:
+        """Index of the piece holding each x (-1 outside the support)."""
+        x = np.asarray(x, dtype=float)
+        idx = np.full(x.shape, -1, dtype=int)
+        for k, pc in enumerate(self.pieces):
+            idx[(x >= pc.lo) & (x <= pc.hi) & (idx < 0)] = k
+        return idx
+
+    def _eval(self, x: np.ndarray, attr: str, outside: float) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        out = np.full(x.shape, outside)
+        idx = self.piece_index(x)
+        for k, pc in enumerate(self.pieces):
+            m = idx == k
+            if np.any(m):
+                out[m] = getattr(pc, attr)(x[m])
+        return out
+
+    def h0(self, x: np.ndarray) -> np.ndarray:
+        """Initial gap ``h0(x)``; ``+inf`` outside the support."""
+        return self._eval(x, "h", INF)
+
+    def dh0(self, x: np.ndarray) -> np.ndarray:
+        """Slope ``h0'(x)`` (right-continuous at kinks); ``nan`` outside the support."""
+        return self._eval(x, "dh", np.nan)
+
+    def d2h0(self, x: np.ndarray) -> np.ndarray:
+        """Curvature ``h0''(x)``; ``nan`` outside the support."""
+        return self._eval(x, "d2h", np.nan)
+
+    __call__ = h0
+
+    @property
+    def support(self) -> tuple[float, float]:
+        """Convex hull of the support."""
+        return self.pieces[0].lo, self.pieces[-1].hi
+
+    def local_minima(self, theta: float = 0.0) -> list[tuple[float, float, float]]:
+        """Local minima of ``h0(x) - theta x`` as ``(x_lo, x_hi, value)``.
+
+        A flat piece at ``theta == 0`` gives an interval; every other minimum is a point.
+        """
+        found: list[tuple[float, float, float]] = []
+        for k, pc in enumerate(self.pieces):
+            found.extend(_piece_minima(self, k, pc, theta))
+        return _dedupe_minima(found, 1e-9 * self.scale)
+
+    def with_lift(self, lift: float) -> Profile:
+        """The profile raised by ``lift`` (for union members)."""
+        return replace(self, pieces=tuple(p.shifted(lift) for p in self.pieces))
+
+
+# ---------------------------------------------------------------------------------------------
+# minima search
+# ---------------------------------------------------------------------------------------------
+def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]:
+    lo = pc.lo if np.isfinite(pc.lo) else _far(prof, -1)
+    hi = pc.hi if np.isfinite(pc.hi) else _far(prof, +1)
+    if pc.flat and theta == 0.0:
+        return [(pc.lo, pc.hi, float(pc.h(np.array([pc.lo]))[0]))]
+    xs = np.linspace(lo, hi, 401)
+    f = pc.h(xs) - theta * xs
+    out = []
+    for i in np.flatnonzero((f[1:-1] <= f[:-2]) & (f[1:-1] <= f[2:])) + 1:
+        xm = _refine_min(pc, theta, xs[i - 1], xs[i + 1])
+        out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
+    for end, x_end, inner in ((0, pc.lo, f[1]), (-1, pc.hi, f[-2])):
+        if np.isfinite(x_end) and f[end] <= inner and _end_is_low(prof, k, end):
+            out.append((x_end, x_end, float(f[end])))
+    return out
+
+
+def _far(prof: Profile, side: int) -> float:
+    finite = [v for p in prof.pieces for v in (p.lo, p.hi) if np.isfinite(v)]
+    centre = 0.5 * (min(finite) + max(finite)) if finite else 0.0
+    return centre + side * 50.0 * prof.scale
+
+
+def _refine_min(pc: Piece, theta: float, a: float, b: float) -> float:
+    def g(x: float) -> float:
+        return float(pc.dh(np.array([x]))[0]) - theta
+
+    ga, gb = g(a), g(b)
+    if ga < 0 < gb:
+        return brentq(g, a, b, xtol=1e-15, rtol=1e-15)
+    return a if ga >= 0 else b
+
+
+def _end_is_low(prof: Profile, k: int, end: int) -> bool:
+    """A piece end is a candidate minimum only where the profile does not continue lower."""
+    x_end = prof.pieces[k].lo if end == 0 else prof.pieces[k].hi
+    return x_end in prof.corners or x_end in prof.kinks
+
+
+def _dedupe_minima(found: list[tuple], tol: float) -> list[tuple[float, float, float]]:
+    found = sorted(found)
+    out: list[tuple[float, float, float]] = []
+    for m in found:
+        if out and abs(m[0] - out[-1][1]) <= tol:
+            prev = out[-1]
+            out[-1] = (prev[0], max(prev[1], m[1]), min(prev[2], m[2]))
+        else:
+            out.append(m)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# constructors
+# ---------------------------------------------------------------------------------------------
+def _check_positive(name: str, value: float) -> float:
+    value = float(value)
+    if not np.isfinite(value) or value <= 0.0:
+        raise InputError(f"{name}={value!r} is not allowed: need a finite value > 0")
+    return value
+
+
+def _poly_piece(coeffs: Sequence[float], lo: float, hi: float, flat: bool = False) -> Piece:
+    """Piece from a polynomial (highest power first); its continuation is global."""
+    c = np.poly1d(coeffs)
+    d1, d2 = c.deriv(1), c.deriv(2)
+    return Piece(lo, hi, lambda x: c(x) + 0.0 * x, lambda x: d1(x) + 0.0 * x,
+                 lambda x: d2(x) + 0.0 * x, (-INF, INF), flat)
+
+
+def _line(slope: float, x0: float, lo: float, hi: float) -> Piece:
+    """``h = slope (x - x0)`` on ``[lo, hi]``."""
+    return _poly_piece([slope, -slope * x0], lo, hi, flat=(slope == 0.0))
+
+
+def cylinder(R: float, center: float = 0.0, lift: float = 0.0) -> Profile:
+    """Cylinder (parabolic approximation): ``h0 = (x - center)^2 / (2R) + lift``."""
+    R = _check_positive("R", R)
+    pc = _poly_piece([0.5 / R, -center / R, center**2 / (2 * R) + lift], -INF, INF)
+    return Profile((pc,), (), (), R, "cylinder", {"R": R, "center": center, "lift": lift})
+
+
+def _arc(rho: float, x_tan: float, side: int, lo: float, hi: float, lift: float) -> Piece:
+    """Circular corner of radius ``rho`` tangent to the flat face at ``x_tan``."""
+    def h(x):
+        return lift + rho - np.sqrt(np.maximum(rho**2 - (x - x_tan) ** 2, 0.0))
+
+    def dh(x):
+        return (x - x_tan) / np.sqrt(rho**2 - (x - x_tan) ** 2)
+
+    def d2h(x):
+        return rho**2 / (rho**2 - (x - x_tan) ** 2) ** 1.5
+
+    reach = (x_tan - 0.999 * rho, x_tan + 0.999 * rho)
+    return Piece(lo, hi, h, dh, d2h, reach)
+
+
+def flat_punch(left: float, right: float, corner_radius: float = 0.0, lift: float = 0.0,
+               corner_shape: str = "circular") -> Profile:
+    """Flat punch with its face on ``[left, right]`` at height ``lift``.
+
+    ``corner_radius == 0``: sharp corners (``h0 = +inf`` beyond; singular edges).  Otherwise the
+    corners are rounded with radius ``corner_radius``: ``corner_shape="circular"`` (a quarter
+    circle, ``h0 = +inf`` beyond it) or ``"parabolic"`` (``h0 = (|x| - b)^2 / (2 rho)``, the form used
+    by Ciavarella, Hills & Monno 1998 for the closed-form P(a, b) relation).
+    """
+    left, right = float(left), float(right)
+    if not right > left:
+        raise InputError(f"flat_punch: right={right!r} must exceed left={left!r}")
+    if corner_radius < 0:
+        raise InputError(f"corner_radius={corner_radius!r} is not allowed: need >= 0")
+    face = _poly_piece([lift], left, right, flat=True)
+    params = {"left": left, "right": right, "corner_radius": corner_radius, "lift": lift,
+              "corner_shape": corner_shape}
+    scale = right - left
+    if corner_radius == 0:
+        return Profile((face,), (left, right), (), scale, "flat_punch", params)
+    rho = float(corner_radius)
+    if corner_shape == "parabolic":
+        lp = _poly_piece([0.5 / rho, -left / rho, left**2 / (2 * rho) + lift], -INF, left)
+        rp = _poly_piece([0.5 / rho, -right / rho, right**2 / (2 * rho) + lift], right, INF)
+    elif corner_shape == "circular":
+        lp = _arc(rho, left, -1, left - rho, left, lift)
+        rp = _arc(rho, right, +1, right, right + rho, lift)
+    else:
+        raise InputError(f"corner_shape={corner_shape!r}: allowed 'circular' or 'parabolic'")
+    return Profile((lp, face, rp), (), (left, right), scale, "flat_punch", params)
+
+
+def wedge(angle_left: float, angle_right: float, apex: float = 0.0, lift: float = 0.0) -> Profile:
+    """Wedge with its apex at ``apex``: ``h0 = tan(angle_left)(apex - x)`` left of the apex and
+    ``tan(angle_right)(x - apex)`` right of it (angles in radians, 0 < angle < pi/2)."""
+    for name, ang in (("angle_left", angle_left), ("angle_right", angle_right)):
+        if not 0.0 < ang < np.pi / 2:
+            raise InputError(f"{name}={ang!r} is not allowed: need 0 < angle < pi/2 "
+                             "(a wedge that opens downwards never touches)")
+    tl, tr = np.tan(angle_left), np.tan(angle_right)
+    pl = _poly_piece([-tl, tl * apex + lift], -INF, apex)
+    pr = _poly_piece([tr, -tr * apex + lift], apex, INF)
+    return Profile((pl, pr), (), (apex,), 1.0, "wedge",
+                   {"angle_left": angle_left, "angle_right": angle_right, "apex": apex,
+                    "lift": lift})
+
+
+def biquadratic(c: float, R: float) -> Profile:
+    """Gladwell's bi-quadratic punch ``h0 = (x^2 - c^2)^2 / (8 R c^2)``: touches at ``x = +-c``
+    with curvature radius R there."""
+    c, R = _check_positive("c", c), _check_positive("R", R)
+    k = 1.0 / (8 * R * c**2)
+    pc = _poly_piece([k, 0.0, -2 * k * c**2, 0.0, k * c**4], -INF, INF)
+    return Profile((pc,), (), (), c, "biquadratic", {"c": c, "R": R})
+
+
+def double_wedge(c: float, phi_inner: float, phi_outer: float) -> Profile:
+    """The paper's Fig. 4: two rigidly connected wedges with apexes at ``+-c``.
+
+    ``h0 = tan(phi_inner)(c - |x|)`` for ``|x| <= c`` and ``tan(phi_outer)(|x| - c)`` beyond.
+    """
+    c = _check_positive("c", c)
+    for name, ang in (("phi_inner", phi_inner), ("phi_outer", phi_outer)):
+        if not 0.0 < ang < np.pi / 2:
+            raise InputError(f"{name}={ang!r} is not allowed: need 0 < angle < pi/2")
+    t1, t2 = np.tan(phi_inner), np.tan(phi_outer)
+    pieces = (_line(-t2, -c, -INF, -c), _line(t1, -c, -c, 0.0),
+              _line(-t1, c, 0.0, c), _line(t2, c, c, INF))
+    return Profile(pieces, (), (-c, 0.0, c), c, "double_wedge",
+                   {"c": c, "phi_inner": phi_inner, "phi_outer": phi_outer})
+
+
+def tabulated(x: Sequence[float], h: Sequence[float], kinks: Sequence[float] = ()) -> Profile:
+    """Measured profile: C2 cubic splines between the given kinks (and the table ends).
+
+    The profile is undefined outside ``[x[0], x[-1]]``; contact must stay inside the table.
+    """
+    x, h = np.asarray(x, float), np.asarray(h, float)
+    if x.ndim != 1 or x.shape != h.shape or x.size < 4:
+        raise InputError(f"tabulated: need 1-D x and h of equal length >= 4, got {x.shape}, "
+                         f"{h.shape}")
+    if np.any(np.diff(x) <= 0) or not np.all(np.isfinite(h)):
+        raise InputError("tabulated: x must be strictly increasing and h finite")
+    if np.any(h < 0):
+        raise InputError(f"tabulated: h0 must be >= 0 (min {h.min()!r})")
+    ks = sorted(k for k in kinks if x[0] < k < x[-1])
+    cuts = [x[0], *ks, x[-1]]
+    pieces = []
+    for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
+        m = (x >= lo - 1e-12) & (x <= hi + 1e-12)
+        if m.sum() < 2:
+            raise InputError(f"tabulated: fewer than 2 samples between kinks {lo} and {hi}")
+        cs = CubicSpline(x[m], h[m], bc_type="natural" if m.sum() > 2 else "not-a-knot")
+        ext = 0.1 * (hi - lo)
+        pieces.append(Piece(lo, hi, cs, cs.derivative(1), cs.derivative(2), (lo - ext, hi + ext)))
+    return Profile(tuple(pieces), (), tuple(ks), float(x[-1] - x[0]), "tabulated",
+                   {"x": x.tolist(), "h": h.tolist(), "kinks": list(ks)})
+
+
+# ---------------------------------------------------------------------------------------------
+# union of rigidly interconnected punches
+# ---------------------------------------------------------------------------------------------
+def union(*profiles: Profile) -> Profile:
+    """Rigidly interconnected punches: ``h0 = min`` of the members.
+
+    The members' lifts are relative heights; the result is shifted so that ``min h0 = 0``.
+    """
+    if len(profiles) < 1:
+        raise InputError("union: need at least one profile")
+    cands = [pc for prof in profiles for pc in prof.pieces]
+    cuts = _union_cuts(cands)
+    segs: list[Piece] = []
+    for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
+        best = _lowest_piece(cands, lo, hi)
+        if best is None:
+            continue
+        if segs and segs[-1] is not None and segs[-1].hi == lo and _same(segs[-1], best):
+            segs[-1] = segs[-1].clipped(segs[-1].lo, hi)
+        else:
+            segs.append(best.clipped(lo, hi))
+    pieces = _normalise(tuple(segs))
+    kinks, corners = _classify_joints(pieces, profiles)
+    scale = min(p.scale for p in profiles)
+    return Profile(pieces, corners, kinks, scale, "union",
+                   {"members": [(p.name, p.params) for p in profiles]})
+
+
+def _union_cuts(cands: list[Piece]) -> list[float]:
+    pts = {v for pc in cands for v in (pc.lo, pc.hi)}
+    finite = sorted(v for v in pts if np.isfinite(v))
+    span = (finite[-1] - finite[0]) if len(finite) > 1 else 1.0
+    lo_all, hi_all = (finite[0], finite[-1]) if finite else (-1.0, 1.0)
+    grid = np.linspace(lo_all - 3 * span - 1.0, hi_all + 3 * span + 1.0, 4001)
+    for i, p in enumerate(cands):
+        for q in cands[i + 1:]:
+            pts.update(_crossings(p, q, grid))
+    return sorted(pts)
+
+
+def _crossings(p: Piece, q: Piece, grid: np.ndarray) -> list[float]:
+    lo, hi = max(p.lo, q.lo), min(p.hi, q.hi)
+    xs = grid[(grid > lo) & (grid < hi)]
+    if xs.size < 2:
+        return []
+    d = p.h(xs) - q.h(xs)
+    out = []
+    for i in np.flatnonzero(np.sign(d[:-1]) * np.sign(d[1:]) < 0):
+        out.append(brentq(lambda t: float(p.h(np.array([t]))[0] - q.h(np.array([t]))[0]),
+                          xs[i], xs[i + 1], xtol=1e-15))
+    return out
+
+
+def _lowest_piece(cands: list[Piece], lo: float, hi: float) -> Piece | None:
+    if lo == hi:
+        return None
+    mid = 0.5 * (lo + hi) if np.isfinite(lo + hi) else (hi - 1.0 if np.isfinite(hi) else lo + 1.0)
+    best, val = None, INF
+    for pc in cands:
+        if pc.lo <= mid <= pc.hi:
+            v = float(pc.h(np.array([mid]))[0])
+            if v < val:
+                best, val = pc, v
+    return best
+
+
+def _same(a: Piece, b: Piece) -> bool:
+    return a.h is b.h or (a.dh is b.dh and a.reach == b.reach)
+
+
+def _normalise(pieces: tuple[Piece, ...]) -> tuple[Piece, ...]:
+    tmp = Profile(pieces, (), (), 1.0)
+    low = min(m[2] for m in _all_minima(tmp))
+    return tuple(p.shifted(-low) for p in pieces)
+
+
+def _all_minima(prof: Profile) -> list[tuple]:
+    out = []
+    for k, pc in enumerate(prof.pieces):
+        lo = pc.lo if np.isfinite(pc.lo) else _far(prof, -1)
+        hi = pc.hi if np.isfinite(pc.hi) else _far(prof, +1)
+        xs = np.linspace(lo, hi, 401)
+        f = pc.h(xs)
+        i = int(np.argmin(f))
+        xm = _refine_min(pc, 0.0, xs[max(i - 1, 0)], xs[min(i + 1, xs.size - 1)])
+        out.append((xm, xm, float(min(f.min(), pc.h(np.array([xm]))[0]))))
+        del k
+    return out
+
+
+def _classify_joints(pieces: tuple[Piece, ...], members: tuple[Profile, ...]):
+    kinks, corners = [], []
+    member_corners = {c for m in members for c in m.corners}
+    for i, pc in enumerate(pieces):
+        left = pieces[i - 1] if i > 0 and pieces[i - 1].hi == pc.lo else None
+        right = pieces[i + 1] if i + 1 < len(pieces) and pieces[i + 1].lo == pc.hi else None
+        for x_end, nb in ((pc.lo, left), (pc.hi, right)):
+            if not np.isfinite(x_end):
+                continue
+            own = float(pc.h(np.array([x_end]))[0])
+            other = INF if nb is None else float(nb.h(np.array([x_end]))[0])
+            if other > own + 1e-12 * max(1.0, abs(own)):
+                corners.append(x_end) if (nb is not None or x_end in member_corners) else None
+            elif nb is not None and x_end not in kinks:
+                kinks.append(x_end)
+    return tuple(sorted(set(kinks))), tuple(sorted(set(corners)))

@@ -1,0 +1,1 @@
+"""Cross-checks of the FE model against the analytic solution (cases, metrics, reports)."""
