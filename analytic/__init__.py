@@ -13,9 +13,14 @@ from analytic.normal import (
     solve_normal,
     solve_normal_fixed_rotation,
 )
+from analytic.overlap import Fig5Data, OverlapSolution, fig5_data, overlapped
 
 __all__ = [
     "ConvergenceError",
+    "Fig5Data",
+    "OverlapSolution",
+    "fig5_data",
+    "overlapped",
     "InputError",
     "NormalSolution",
     "load_curve",

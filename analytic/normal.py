@@ -137,6 +137,8 @@ class _State:
     P: float
     xc: float
     ell: float
+    jac: np.ndarray | None = None
+    checks: dict | None = None
 
 
 def _free_edges(layout: Layout, mode: _Mode) -> np.ndarray:
@@ -168,7 +170,7 @@ def _unpack(z: np.ndarray, st: _State, mode: _Mode, A: float) -> _State:
     if mode.P is not None and nb > 0:
         beta[nb - 1] = -A * mode.P
     theta = float(z[-1]) if mode.M is not None else st.theta
-    return _State(st.layout.with_edges(edges), beta, theta, st.P, st.xc, st.ell)
+    return _State(st.layout.with_edges(edges), beta, theta, st.P, st.xc, st.ell, st.jac)
 
 
 def _residual(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[np.ndarray, System]:
@@ -208,30 +210,46 @@ class _NewtonFailed(Exception):
 
 
 def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State, np.ndarray]:
+    """Damped Newton; a Jacobian carried over from the previous continuation step is reused
+    (chord iterations) until the contraction slows, then refreshed by finite differences."""
     z = _pack(st, mode)
     F, _ = _residual(st, mode, profile, A)
     if z.size != F.size:
         raise AssertionError(f"unknowns {z.size} != equations {F.size}")
     if z.size == 0:
         return st, F
-    norm = np.max(np.abs(F))
+    norm = float(np.max(np.abs(F)))
+    J = st.jac if st.jac is not None and st.jac.shape == (F.size, z.size) else None
+    fresh = False
     for it in range(NEWTON_MAXIT):
         if norm < NEWTON_TOL:
-            return st, F
-        J = _jacobian(z, F, st, mode, profile, A)
+            break
+        if J is None:
+            J, fresh = _jacobian(z, F, st, mode, profile, A), True
         try:
             dz = np.linalg.solve(J, -F)
         except np.linalg.LinAlgError as exc:
+            if not fresh:
+                J = None
+                continue
             raise _NewtonFailed("singular Jacobian", {"residual": norm, "iteration": it}) from exc
-        st, z, F, new_norm = _line_search(st, z, dz, norm, mode, profile, A)
-        if new_norm >= norm and new_norm > 1e3 * NEWTON_TOL:
+        trial, zt, Ft, nt = _line_search(st, z, dz, norm, mode, profile, A)
+        if nt > 0.2 * norm and not fresh:
+            J = None  # stale Jacobian: refresh and retry from the same point
+            continue
+        if nt >= norm and nt > 1e3 * NEWTON_TOL:
             raise _NewtonFailed("no descent", {"residual": norm, "iteration": it})
-        if np.max(np.abs(dz)) < 1e-15 and new_norm < 1e3 * NEWTON_TOL:
-            return st, F
-        norm = new_norm
-    if norm < 1e3 * NEWTON_TOL:
-        return st, F
-    raise _NewtonFailed("too many iterations", {"residual": norm, "iteration": NEWTON_MAXIT})
+        st, z, F, fresh = trial, zt, Ft, False
+        if np.max(np.abs(dz)) < 1e-15 and nt < 1e3 * NEWTON_TOL:
+            norm = nt
+            break
+        norm = nt
+    else:
+        if norm >= 1e3 * NEWTON_TOL:
+            raise _NewtonFailed("too many iterations", {"residual": norm,
+                                                        "iteration": NEWTON_MAXIT})
+    st.jac = J
+    return st, F
 
 
 def _jacobian(z, F, st, mode, profile, A) -> np.ndarray:
@@ -370,10 +388,10 @@ def _check_points_outside(st: _State, profile: Profile) -> np.ndarray:
     pts = []
     for m in range(st.layout.n - 1):
         b, a = e[2 * m + 1], e[2 * m + 2]
-        t = 0.5 * (1 - np.cos(np.pi * (np.arange(16) + 0.5) / 16))
+        t = 0.5 * (1 - np.cos(np.pi * (np.arange(10) + 0.5) / 10))
         pts.append(b + (a - b) * t)
     span = max(e[-1] - e[0], profile.scale)
-    d = span * np.geomspace(1e-3, 3.0, 24)
+    d = span * np.geomspace(1e-3, 3.0, 12)
     pts += [e[0] - d, e[-1] + d]
     mins = [0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
     pts.append(np.asarray(mins + list(profile.corners) + list(profile.kinks), float))
@@ -394,11 +412,13 @@ def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event 
     P_scale = st.P / max(st.layout.edges[1::2].sum() - st.layout.edges[0::2].sum(), 1e-300)
     xi = _check_points_inside(st.layout.edges)
     p = sys_.pressure_inside(xi)
+    st.checks = {"min_pressure": float(np.min(p)), "min_gap": 0.0}
     if np.min(p) < -ADMISSIBLE_TOL * P_scale:
         return _pressure_event(st, xi, p)
     xo = _check_points_outside(st, profile)
     if xo.size:
         g = deformed_gap(sys_, xo)
+        st.checks["min_gap"] = float(np.min(g))
         g_scale = A * st.P + 1e-300
         if np.min(g) < -ADMISSIBLE_TOL * g_scale:
             return _gap_event(st, xo[int(np.argmin(g))])
@@ -513,9 +533,9 @@ def _predict(st: _State, prev: _State | None, P_next: float) -> _State:
     edges[free] = guess[free]
     trial = Layout(edges, st.layout.pinned)
     beta = st.beta * (P_next / st.P) if st.beta.size else st.beta
-    new = _State(trial, beta, st.theta, P_next, st.xc, st.ell)
+    new = _State(trial, beta, st.theta, P_next, st.xc, st.ell, st.jac)
     if np.any(np.diff(edges) <= 0):
-        new = _State(st.layout, beta, st.theta, P_next, st.xc, st.ell)
+        new = _State(st.layout, beta, st.theta, P_next, st.xc, st.ell, st.jac)
     return new
 
 
@@ -543,7 +563,7 @@ def _recentre(st: _State) -> _State:
     xc = float(0.5 * (e[0] + e[-1]))
     ell = max(float(e[-1] - e[0]), 1e-300)
     beta = _shift_poly(st.beta, xc - st.xc)
-    return _State(st.layout, beta, st.theta, st.P, xc, ell)
+    return _State(st.layout, beta, st.theta, st.P, xc, ell, st.jac)
 
 
 def _shift_poly(beta: np.ndarray, d: float) -> np.ndarray:
@@ -599,7 +619,7 @@ def _continue(st: _State, P_target: float, profile: Profile, A: float,
         ratio = min(ratio * ratio, 16.0)
 
 
-MERGE_GAP = 0.05  # try merging two zones once their gap is below this fraction of their widths
+MERGE_GAP = 0.5  # on a failed step, try merging two zones whose gap is below this fraction of their widths
 
 
 def _try_merge(st: _State, P_next: float, profile: Profile, A: float):
@@ -668,38 +688,54 @@ def solve_normal_fixed_rotation(profile: Profile, P: float, A: float, theta: flo
     return _finish(st, sys_, profile, A, "fixed-rotation")
 
 
-def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | None = None
-               ) -> list[NormalSolution]:
-    """Solutions along increasing loads, reusing the continuation (M: moment at every load)."""
+def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | None = None,
+               theta: float | None = None) -> list[NormalSolution]:
+    """Solutions at several loads, reusing one continuation from the first touch.
+
+    ``M`` given: applied moment at every load (solved load by load).  ``theta`` given: the rigid
+    rotation is prescribed (the stick-zone problems of stage 2/3).  Otherwise vertical indentation.
+    Results are returned in the order of ``loads``.
+    """
     loads = np.asarray(loads, float)
     if loads.ndim != 1 or loads.size == 0:
         raise InputError("loads must be a non-empty 1-D sequence")
+    if M is not None and theta is not None:
+        raise InputError("give either M (applied moment) or theta (prescribed rotation), not both")
     order = np.argsort(loads)
     out: list[NormalSolution | None] = [None] * loads.size
     if M is not None:
         for i in order:
             out[i] = solve_normal(profile, loads[i], A, M)
         return out  # type: ignore[return-value]
-    _validate(profile, float(loads[order[0]]), A)
-    st = _initial_state(profile, A, 0.0, float(loads[order[0]]))
+    for P in loads:
+        _validate(profile, float(P), A)
+    th = 0.0 if theta is None else float(theta)
+    mode = "vertical" if theta is None else "fixed-rotation"
+    st = _initial_state(profile, A, th, float(loads[order[0]]))
     prev = None
     for i in order:
         st, sys_, prev = _continue(st, float(loads[i]), profile, A, prev)
-        out[i] = _finish(st, sys_, profile, A, "vertical")
+        out[i] = _finish(st, sys_, profile, A, mode)
     return out  # type: ignore[return-value]
+
+
+def _fresh_checks(st: _State, sys_: System, profile: Profile) -> dict:
+    xo = _check_points_outside(st, profile)
+    p = sys_.pressure_inside(_check_points_inside(st.layout.edges))
+    return {"min_pressure": float(np.min(p)),
+            "min_gap": float(np.min(deformed_gap(sys_, xo))) if xo.size else 0.0}
 
 
 def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> NormalSolution:
     zl = zone_loads(sys_)
     P_calc, M_calc = sys_.load_and_moment()
     F, _ = _residual(st, _Mode(st.P, None), profile, A)
-    xi = _check_points_inside(st.layout.edges, 64)
-    xo = _check_points_outside(st, profile)
+    checks = st.checks if st.checks is not None else _fresh_checks(st, sys_, profile)
     res = {
         "equations": float(np.max(np.abs(F))) if F.size else 0.0,
         "equilibrium": abs(sum(zl) - st.P) / st.P,
-        "min_pressure": float(np.min(sys_.pressure_inside(xi))),
-        "min_gap": float(np.min(deformed_gap(sys_, xo))) if xo.size else 0.0,
+        "load_closed_form": abs(P_calc - st.P) / st.P,
+        **checks,
     }
     singular = [tuple(bool(v) for v in pr) for pr in st.layout.pinned.reshape(-1, 2)]
     return NormalSolution(st.layout.zones(), singular, zl, st.P, M_calc, st.theta, mode, A,
