@@ -44,7 +44,7 @@ def _bracket(profile, P, A, M, theta0, step):
                                {"theta": theta0})
     f0 = first[2] - M
     direction = -np.sign(f0) if f0 != 0 else 1.0
-    lo_t, lo_f, best = theta0, f0, first
+    lo_t, lo_f = theta0, f0
     for _ in range(60):
         t = lo_t + direction * step
         trial = _moment_at(profile, P, A, t)
@@ -54,7 +54,7 @@ def _bracket(profile, P, A, M, theta0, step):
         f = trial[2] - M
         if np.sign(f) != np.sign(lo_f):
             return (lo_t, t) if lo_t < t else (t, lo_t), trial
-        lo_t, lo_f, best = t, f, trial
+        lo_t, lo_f = t, f
         step *= 2.0
     raise InputError(f"M={M!r} cannot be carried: no rotation gives that moment "
                      "(the body tips off its contact)")

@@ -45,7 +45,7 @@ MAX_NODES = 640
 
 @lru_cache(maxsize=512)
 def jacobi_rule(n: int, alpha_hi: float, alpha_lo: float) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss-Jacobi nodes/weights on [-1, 1] for the weight ``(1 - t)^alpha_hi (1 + t)^alpha_lo``."""
+    """Gauss-Jacobi rule on [-1, 1] for the weight ``(1 - t)^alpha_hi (1 + t)^alpha_lo``."""
     t, w = roots_jacobi(n, alpha_hi, alpha_lo)
     return t, w
 

@@ -619,7 +619,8 @@ def _continue(st: _State, P_target: float, profile: Profile, A: float,
         ratio = min(ratio * ratio, 16.0)
 
 
-MERGE_GAP = 0.5  # on a failed step, try merging two zones whose gap is below this fraction of their widths
+# on a failed step, try merging two zones whose gap is below this fraction of their widths
+MERGE_GAP = 0.5
 
 
 def _try_merge(st: _State, P_next: float, profile: Profile, A: float):

@@ -225,8 +225,8 @@ def flat_punch(left: float, right: float, corner_radius: float = 0.0, lift: floa
 
     ``corner_radius == 0``: sharp corners (``h0 = +inf`` beyond; singular edges).  Otherwise the
     corners are rounded with radius ``corner_radius``: ``corner_shape="circular"`` (a quarter
-    circle, ``h0 = +inf`` beyond it) or ``"parabolic"`` (``h0 = (|x| - b)^2 / (2 rho)``, the form used
-    by Ciavarella, Hills & Monno 1998 for the closed-form P(a, b) relation).
+    circle, ``h0 = +inf`` beyond it) or ``"parabolic"`` (``h0 = (|x| - b)^2 / (2 rho)``, the
+    form used by Ciavarella, Hills & Monno 1998 for the closed-form P(a, b) relation).
     """
     left, right = float(left), float(right)
     if not right > left:
