@@ -14,17 +14,22 @@ from analytic.normal import (
     solve_normal_fixed_rotation,
 )
 from analytic.overlap import Fig5Data, OverlapSolution, fig5_data, overlapped
+from analytic.stick import CycleResult, StickSolution, cycle, solve_stick
 
 __all__ = [
     "ConvergenceError",
+    "CycleResult",
     "Fig5Data",
     "OverlapSolution",
     "fig5_data",
     "overlapped",
     "InputError",
     "NormalSolution",
+    "StickSolution",
+    "cycle",
     "load_curve",
     "profiles",
     "solve_normal",
     "solve_normal_fixed_rotation",
+    "solve_stick",
 ]

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
+from analytic._guess import overlap_guess
 from analytic._sie import Layout, System
 from analytic.errors import ConvergenceError, InputError
 from analytic.profiles import Profile
@@ -219,6 +220,8 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
     if z.size == 0:
         return st, F
     norm = float(np.max(np.abs(F)))
+    if not np.isfinite(norm):
+        raise _NewtonFailed("non-finite residual at the start", {"residual": norm})
     J = st.jac if st.jac is not None and st.jac.shape == (F.size, z.size) else None
     fresh = False
     for it in range(NEWTON_MAXIT):
@@ -377,10 +380,20 @@ def _beta_for(st: _State, A: float, P: float) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 # admissibility and topology updates
 # ---------------------------------------------------------------------------------------------
-def _check_points_inside(edges: np.ndarray, n_pts: int = 24) -> np.ndarray:
+def _check_points_inside(edges: np.ndarray, n_pts: int = 49,
+                         profile: Profile | None = None, theta: float = 0.0) -> np.ndarray:
+    """Chebyshev points of every zone plus, when a profile is given, the local maxima of
+    ``h0 - theta x`` inside the zones (where the pressure dips first when zones separate)."""
     z = edges.reshape(-1, 2)
     t = 0.5 * (1 - np.cos(np.pi * (np.arange(n_pts) + 0.5) / n_pts))
-    return (z[:, :1] + (z[:, 1:] - z[:, :1]) * t[None, :]).ravel()
+    pts = [(z[:, :1] + (z[:, 1:] - z[:, :1]) * t[None, :]).ravel()]
+    if profile is not None:
+        for a, b in z:
+            x = np.linspace(a, b, 401)[1:-1]
+            h = profile.h0(x) - theta * x
+            peak = np.flatnonzero((h[1:-1] >= h[:-2]) & (h[1:-1] >= h[2:])) + 1
+            pts.append(x[peak])
+    return np.concatenate(pts)
 
 
 def _check_points_outside(st: _State, profile: Profile) -> np.ndarray:
@@ -410,7 +423,7 @@ class _Event:
 
 def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event | None:
     P_scale = st.P / max(st.layout.edges[1::2].sum() - st.layout.edges[0::2].sum(), 1e-300)
-    xi = _check_points_inside(st.layout.edges)
+    xi = _check_points_inside(st.layout.edges, profile=profile, theta=st.theta)
     p = sys_.pressure_inside(xi)
     st.checks = {"min_pressure": float(np.min(p)), "min_gap": 0.0}
     if np.min(p) < -ADMISSIBLE_TOL * P_scale:
@@ -519,7 +532,7 @@ class _StepFailed(Exception):
     pass
 
 
-def _predict(st: _State, prev: _State | None, P_next: float) -> _State:
+def _predict(st: _State, prev: _State | None, P_next: float, profile: Profile) -> _State:
     edges = st.layout.edges.copy()
     free = ~st.layout.pinned
     if prev is not None and prev.layout.edges.shape == edges.shape and \
@@ -534,7 +547,7 @@ def _predict(st: _State, prev: _State | None, P_next: float) -> _State:
     trial = Layout(edges, st.layout.pinned)
     beta = st.beta * (P_next / st.P) if st.beta.size else st.beta
     new = _State(trial, beta, st.theta, P_next, st.xc, st.ell, st.jac)
-    if np.any(np.diff(edges) <= 0):
+    if np.any(np.diff(edges) <= 0) or not _feasible(new, profile):
         new = _State(st.layout, beta, st.theta, P_next, st.xc, st.ell, st.jac)
     return new
 
@@ -546,7 +559,12 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         try:
             st, F = _newton(st, _Mode(st.P, M), profile, A)
         except _NewtonFailed as exc:
-            raise _StepFailed(str(exc)) from exc
+            pinned = _pin_nearby_corner(st, profile, A)
+            if pinned is None:
+                raise _StepFailed(str(exc)) from exc
+            history.append(_Event("pin", float(pinned.layout.edges[0])))
+            st = pinned
+            continue
         st = _pin_corners(st, profile)
         sys_ = System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
         ev = _find_event(st, sys_, profile, A)
@@ -587,6 +605,27 @@ def _pin_corners(st: _State, profile: Profile) -> _State:
                   st.theta, st.P, st.xc, st.ell)
 
 
+PIN_DISTANCE = 0.05  # a free edge this close to a corner (fraction of its zone) may pin there
+
+
+def _pin_nearby_corner(st: _State, profile: Profile, A: float) -> _State | None:
+    """After a failed Newton: the free edge nearest a corner becomes singular at that corner."""
+    e, pinned = st.layout.edges.copy(), st.layout.pinned.copy()
+    best, where = None, None
+    for i in np.flatnonzero(~pinned):
+        width = e[i - (i % 2) + 1] - e[i - (i % 2)]
+        for c in profile.corners:
+            d = abs(e[i] - c)
+            if d <= PIN_DISTANCE * width and (best is None or d < best[0]):
+                best, where = (d, i), c
+    if best is None:
+        return None
+    e[best[1]], pinned[best[1]] = where, True
+    new = _fresh_state(Layout(e, pinned), st.theta, st.P)
+    new.beta = _beta_for(new, A, st.P)
+    return new
+
+
 def _continue(st: _State, P_target: float, profile: Profile, A: float,
               prev: _State | None = None) -> tuple[_State, System, _State | None]:
     ratio = 4.0
@@ -598,7 +637,7 @@ def _continue(st: _State, P_target: float, profile: Profile, A: float,
             raise ConvergenceError("continuation did not reach the load", {"P": st.P})
         P_next = P_target if st.P * ratio >= P_target else st.P * ratio
         try:
-            trial = _predict(st, prev, P_next)
+            trial = _predict(st, prev, P_next, profile)
             new, sys_ = _converge(trial, profile, A, None)
         except _StepFailed as exc:
             merged = _try_merge(st, P_next, profile, A)
@@ -675,6 +714,16 @@ def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
 
 
 def _solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[_State, System]:
+    """Newton straight from the overlap guess at P; full continuation from the first touch if
+    that fails (the admissibility checks decide either way)."""
+    guess = overlap_guess(profile, theta, P, A)
+    if guess is not None:
+        st = _fresh_state(guess, theta, P)
+        st.beta = _beta_for(st, A, P)
+        try:
+            return _converge(st, profile, A, None)
+        except _StepFailed:
+            pass
     st = _initial_state(profile, A, theta, P)
     st, sys_, _ = _continue(st, P, profile, A)
     return st, sys_
@@ -722,7 +771,8 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
 
 def _fresh_checks(st: _State, sys_: System, profile: Profile) -> dict:
     xo = _check_points_outside(st, profile)
-    p = sys_.pressure_inside(_check_points_inside(st.layout.edges))
+    p = sys_.pressure_inside(_check_points_inside(st.layout.edges, profile=profile,
+                                                  theta=st.theta))
     return {"min_pressure": float(np.min(p)),
             "min_gap": float(np.min(deformed_gap(sys_, xo))) if xo.size else 0.0}
 

@@ -1,0 +1,518 @@
+"""Stick and slip zones under tangential loading: paper Section 5 and Table 1, stages 2-3.
+
+The Jager-Ciavarella principle (paper Section 5, generalised) turns every stick-zone problem into
+a normal problem at a reduced load, solved at the *rotation* of stage 1 (not its moment).
+
+Conventions (DESIGN.md): ``p >= 0`` compressive; ``q`` is the shear on body 1 in the direction of
+``Q`` with ``int q dx = Q``; the relative slip ``s`` is the tangential displacement of body 1
+relative to body 2 accumulated in the current stage (positive along +x).
+
+Derivation and signs (done once, here).  With ``u[f](x) = -(A/pi) int f(s) ln|x - s| ds`` and
+``h = h0 - theta x``, the stage-1 solution satisfies ``u[p] = delta - h`` on the contact set ``L``,
+and the reduced solution ``p_S`` at load ``P_S`` (same ``theta``) satisfies
+``u[p_S] = delta_S - h + g_S`` everywhere, ``g_S`` its deformed gap (0 on its zones ``S``).  For
+similar materials the tangential problem is uncoupled and uses the same kernel: the slip of a
+shear increment ``dq`` is ``s = lam - u[dq]`` (``lam`` the rigid shift of body 1), and Coulomb's
+law reads ``s = 0, |q| <= mu p`` (stick) or ``q = mu p sign(s)`` (slip: the shear body 1
+transmits points along its slip).
+
+* Stage 2 (``Q: 0 -> Q``, ``sigma = sign(Q)``): ``dq = sigma mu (p - p_S)`` with
+  ``P* = P - |Q|/mu`` (``int dq = Q``; the paper's ``P* = P - Q/mu`` for ``Q > 0``).  On ``L``,
+  ``u[dq] = sigma mu (delta - delta_S) - sigma mu g_S``; with ``lam = sigma mu (delta - delta_S)``
+  the slip is ``s = sigma mu g_S``: zero on ``S`` and of sign ``sigma`` on ``L - S``, where
+  ``q = sigma mu p`` -- Coulomb holds.  Paper Table 1 / Eq. (15) with ``q = -mu p + q*``
+  (sign-flipped, ``q* = mu p_S``).
+* Stage 3 (after ``0 -> Q0``, ``Q: Q0 -> Q``, ``sigma = sign(Q0)``): ``dq = -2 sigma mu (p - p_S)``
+  with ``P** = P - |Q0 - Q|/(2 mu)``; the same algebra gives ``s = -2 sigma mu g_S``.  Outside
+  ``S**`` the shear is ``q0 - 2 sigma mu p = -sigma mu p`` because ``S0 = S(P*)`` lies inside
+  ``S** = S(P**)`` (``P** >= P*``).  At ``Q = -Q0``, ``P** = P*`` and ``q = -q0``.
+
+Both are exact only if (i) ``S`` lies inside ``L``, (ii) ``|q| <= mu p`` on ``S`` (i.e.
+``0 <= p_S <= 2 p`` in stage 2) and (iii) the slip grows monotonically in its direction as the
+stage proceeds (``g_S`` non-increasing in the reduced load).  (i) and (ii) are checked for every
+solution, (iii) along every :func:`cycle`; a violation raises :class:`ConvergenceError`.
+
+A contact zone that holds no contact of the reduced problem is in *full slip*.  The paper's claim
+that all zones reach full slip together (Section 5) holds only if all zones start touching at
+the same load of the reduced problem ``h0 - theta x``; unequal lifts, or an applied moment
+(``theta != 0``), make one zone slip fully before the others.
+
+Dissipation per steady cycle ``Q0 -> -Q0 -> Q0``: a point that slips in stage 3 keeps slipping
+with ``q = -sigma mu p`` (condition iii) from ``s = 0`` to ``s = -2 sigma mu g_S(x; P*)``, so the
+friction work there is ``2 mu^2 p g_S(x; P*)``; the return half is its mirror image.  Per zone
+
+    W_k = oint int_{L_k} q ds dx = 4 mu^2 int_{L_k} p(x) g_S(x; P - Q0/mu) dx.
+
+For Hertz (``c = a sqrt(1 - Q0/(mu P))``, ``g_S = (|x| sqrt(x^2 - c^2) - c^2 acosh(|x|/c))/(2R)``)
+the slip zones have width ``eps = a Q0/(2 mu P)``, ``p ~ sqrt(eps)`` and ``g_S ~ eps^(3/2)`` there,
+so ``W = 4 mu^2 * 2 * (4/3)(p0/R) B(3/2, 5/2) eps^3 = A Q0^3 / (3 pi mu P) (1 + O(Q0/(mu P)))``
+(with ``p0 = a/(A R)``, ``a^2 = 2 A P R/pi``): the classic cubic law of Mindlin's dissipation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import lru_cache
+
+import numpy as np
+
+from analytic.errors import ConvergenceError, InputError
+from analytic.normal import NormalSolution, load_curve
+
+FRICTION_TOL = 1e-8
+"""Allowed ``|q| - mu p`` relative to ``mu P / extent`` (the normal solutions are ~1e-12 exact)."""
+EQUILIBRIUM_TOL = 1e-7
+"""Allowed ``|int q dx - Q|`` relative to ``mu P`` (quadrature of q across profile kinks)."""
+CONTAIN_TOL = 1e-9
+"""How far (relative to the contact extent) a stick zone may poke out of its contact zone."""
+GROSS_SLIP_REL = 1e-12
+"""``|Q|`` within this fraction of ``mu P`` counts as ``mu P`` (gross sliding)."""
+SAME_LOAD_REL = 1e-14
+"""A reduced load this close to P reuses the stage-1 solution (the reduced problem is stage 1)."""
+RATE_TOL = 1e-9
+"""Allowed decrease of ``|s|`` between cycle samples, relative to ``mu A P`` (condition iii)."""
+QUAD_NODES = 48
+"""Gauss-Legendre nodes per sub-interval in the cosine map (integrands are smooth in angle)."""
+RATE_NODES = 8
+"""Nodes per slip interval at which the monotonic-slip condition is checked along a cycle."""
+
+
+# ---------------------------------------------------------------------------------------------
+# results
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class StickSolution:
+    """Partial-slip state at tangential load ``Q`` (paper Table 1, stages 2-3; Section 5).
+
+    Attributes
+    ----------
+    normal : the stage-1 solution the shear lives on.
+    mu : Coulomb friction coefficient.
+    Q : tangential force on body 1 per unit width.
+    Q0 : ``None`` in stage 2; in stage 3 the turning load of the preceding stage 2.
+    stage : 2 or 3.
+    direction : sign of the shear in the slip zones that grow in this stage (and of the slip):
+        ``sign(Q)`` in stage 2, ``-sign(Q0)`` in stage 3.
+    P_reduced : the reduced load ``P* = P - |Q|/mu`` (stage 2) or ``P** = P - |Q0 - Q|/(2 mu)``.
+    reduced : the normal solution at ``P_reduced`` and the rotation ``normal.theta`` (its zones
+        are the stick zones); ``None`` when ``P_reduced`` is zero (gross sliding).
+    stick_zones : per contact zone ``(c, d)`` or ``None`` for a zone in full slip.  Should the
+        reduced problem split one contact zone into several stick intervals (outside the
+        paper's theory), this is their hull: ``stick_intervals`` holds them all.
+    stick_intervals : per contact zone, all stick intervals ``((c, d), ...)``.
+    slip_zones : per contact zone, the slip intervals of this stage (``L_k`` minus stick).
+    full_slip_zones : indices into ``normal.zones`` of the zones without stick.
+    previous : stage 3: the stage-2 end state at ``Q0`` (``q0``); ``None`` in stage 2.
+    residuals : self-checks: ``friction`` (max ``(|q| - mu p)`` / ``(mu P/extent)``),
+        ``equilibrium`` (``|int q - Q| / (mu P)``), ``containment`` (how far stick zones poke
+        out of their contact zones, relative to the extent).
+    """
+
+    normal: NormalSolution = field(repr=False)
+    mu: float
+    Q: float
+    Q0: float | None
+    stage: int
+    direction: float
+    P_reduced: float
+    reduced: NormalSolution | None = field(repr=False)
+    stick_zones: tuple[tuple[float, float] | None, ...]
+    stick_intervals: tuple[tuple[tuple[float, float], ...], ...]
+    slip_zones: tuple[tuple[tuple[float, float], ...], ...]
+    full_slip_zones: tuple[int, ...]
+    previous: StickSolution | None = field(repr=False)
+    residuals: dict[str, float]
+
+    @property
+    def factor(self) -> float:
+        """Signed multiple of ``mu (p - p_S)`` added in this stage: ``direction * (1 or 2)``."""
+        return self.direction * (1.0 if self.stage == 2 else 2.0)
+
+    def shear(self, x: np.ndarray | float) -> np.ndarray:
+        """Shear ``q(x)`` on body 1 along +x (vectorised; 0 outside the contact zones).
+
+        Stage 2: ``sigma mu [p(x; P) - p_S(x; P*)]``;
+        stage 3: ``q0 - 2 sigma mu [p(x; P) - p_S(x; P**)]``.
+        """
+        x = np.atleast_1d(np.asarray(x, float))
+        q = self.previous.shear(x) if self.previous is not None else np.zeros(x.shape)
+        p_s = self.reduced.pressure(x) if self.reduced is not None else 0.0
+        return q + self.factor * self.mu * (self.normal.pressure(x) - p_s)
+
+    def slip(self, x: np.ndarray | float) -> np.ndarray:
+        """Relative slip of body 1 w.r.t. body 2 accumulated in this stage (vectorised).
+
+        ``sigma mu g_S(x)`` (stage 2) or ``-2 sigma mu g_S(x)`` (stage 3) in the contact zones,
+        zero in the stick zones; 0 outside the contact zones.  ``nan`` in gross sliding, where
+        the rigid slip is unbounded.
+        """
+        x = np.atleast_1d(np.asarray(x, float))
+        inside = _inside(x, self.normal.zones)
+        out = np.zeros(x.shape)
+        if self.reduced is None:
+            out[inside] = np.nan
+        elif np.any(inside):
+            out[inside] = self.factor * self.mu * self.reduced.gap(x[inside])
+        return out
+
+
+@dataclass(frozen=True)
+class CycleResult:
+    """The cycle ``0 -> Q0 -> -Q0 -> Q0`` sampled at ``n`` loads: stick-slip map and dissipation.
+
+    Attributes
+    ----------
+    normal, mu, Q0 : the stage-1 solution, friction coefficient and amplitude (``Q0 > 0``).
+    Q : (n,) tangential loads along the path.  Stage 2 ``0 -> Q0`` and the half cycles
+        ``Q0 -> -Q0`` and ``-Q0 -> Q0`` get the same number ``m`` of load steps (stage 2 twice as
+        dense in Q), so all samples share the ``m + 1`` reduced loads ``P - k Q0 / (m mu)``.
+    stage : (n,) 2, 3 (``Q0 -> -Q0``) or 4 (``-Q0 -> Q0``, the mirror image of stage 3).
+    P_reduced : (n,) reduced load of each sample.
+    stick_edges : (n, n_zones, 2) stick edges ``(c, d)`` per sample and zone; ``nan`` in full slip.
+    full_slip : (n, n_zones) True where a zone is in full slip.
+    states : the :class:`StickSolution` of each sample (stage 4 samples are stage-3 solutions
+        started from ``-Q0``: ``solve_stick(normal, mu, Q, -Q0)``).
+    W : dissipated energy per steady cycle per zone (energy per unit width),
+        ``4 mu^2 int_{L_k} p g_S(x; P - Q0/mu) dx`` (module docstring).
+    residuals : worst self-checks over all samples, and ``rate`` (largest decrease of ``|s|``
+        between samples relative to ``mu A P``; must be ~0 for the loop integral to hold).
+    """
+
+    normal: NormalSolution = field(repr=False)
+    mu: float
+    Q0: float
+    Q: np.ndarray
+    stage: np.ndarray
+    P_reduced: np.ndarray
+    stick_edges: np.ndarray
+    full_slip: np.ndarray
+    states: tuple[StickSolution, ...] = field(repr=False)
+    W: tuple[float, ...]
+    residuals: dict[str, float]
+
+    @property
+    def W_total(self) -> float:
+        """Dissipated energy per steady cycle, all zones."""
+        return float(sum(self.W))
+
+
+# ---------------------------------------------------------------------------------------------
+# validation
+# ---------------------------------------------------------------------------------------------
+def _check_normal(normal: NormalSolution) -> None:
+    if not isinstance(normal, NormalSolution):
+        raise InputError(f"normal must be an analytic.NormalSolution, got {type(normal)!r}")
+
+
+def _check_mu(mu: float) -> float:
+    mu = float(mu)
+    if not (np.isfinite(mu) and mu > 0):
+        raise InputError(f"mu={mu!r} is not allowed: need a finite friction coefficient mu > 0")
+    return mu
+
+
+def _check_tangential(name: str, value: float, limit: float, allow_full_slip: bool) -> float:
+    """``|value| < limit = mu P``; ``= limit`` only with ``allow_full_slip``; never above."""
+    value = float(value)
+    if not np.isfinite(value):
+        raise InputError(f"{name}={value!r} is not allowed: need a finite force")
+    if abs(value) > limit * (1 + GROSS_SLIP_REL):
+        raise InputError(f"{name}={value!r} is not allowed: need |{name}| <= mu P = {limit:.6g} "
+                         "(beyond it the interface cannot hold the body: no static state)")
+    if abs(value) >= limit * (1 - GROSS_SLIP_REL) and not allow_full_slip:
+        raise InputError(f"{name}={value!r} is not allowed: |{name}| = mu P = {limit:.6g} is gross"
+                         " sliding (no stick zone); pass allow_full_slip=True for that state")
+    return float(np.clip(value, -limit, limit))
+
+
+def _check_stage3_load(Q: float, Q0: float) -> float:
+    Q = float(Q)
+    lo, hi = sorted((-Q0, Q0))
+    if not (np.isfinite(Q) and lo <= Q <= hi):
+        raise InputError(f"Q={Q!r} is not allowed in stage 3: need Q between -Q0 and Q0 = {Q0!r}"
+                         f" (the load comes back from Q0 towards -Q0)")
+    return Q
+
+
+# ---------------------------------------------------------------------------------------------
+# reduced (stick-zone) problems
+# ---------------------------------------------------------------------------------------------
+def _reduced_solutions(normal: NormalSolution, loads: np.ndarray) -> list[NormalSolution | None]:
+    """Normal solutions at the reduced loads and the rotation of stage 1 (one continuation)."""
+    P = normal.P
+    out: list[NormalSolution | None] = [None] * loads.size
+    same = np.abs(loads - P) <= SAME_LOAD_REL * P
+    zero = loads <= GROSS_SLIP_REL * P
+    todo = np.flatnonzero(~same & ~zero)
+    for i in np.flatnonzero(same):
+        out[i] = normal
+    if todo.size:
+        sols = load_curve(normal.profile, loads[todo], normal.A, theta=normal.theta)
+        for i, s in zip(todo, sols, strict=True):
+            out[i] = s
+    return out
+
+
+def _stage2_load(P: float, mu: float, Q: float) -> float:
+    """``P* = P - |Q|/mu`` (paper Section 5, stage 2)."""
+    return max(P - abs(Q) / mu, 0.0)
+
+
+def _stage3_load(P: float, mu: float, Q: float, Q0: float) -> float:
+    """``P** = P - |Q0 - Q|/(2 mu)`` (paper Section 5, stage 3)."""
+    return max(P - abs(Q0 - Q) / (2 * mu), 0.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# zones
+# ---------------------------------------------------------------------------------------------
+def _inside(x: np.ndarray, zones: list[tuple[float, float]]) -> np.ndarray:
+    z = np.asarray(zones, float).reshape(-1, 2)
+    return np.any((x[:, None] >= z[:, 0]) & (x[:, None] <= z[:, 1]), axis=1)
+
+
+def _assign_stick(normal: NormalSolution, reduced: NormalSolution | None
+                  ) -> tuple[list[list[tuple[float, float]]], float]:
+    """Stick intervals per contact zone (clipped), and the worst poke-out (relative)."""
+    per: list[list[tuple[float, float]]] = [[] for _ in normal.zones]
+    if reduced is None:
+        return per, 0.0
+    tol = CONTAIN_TOL * normal.extent
+    worst = 0.0
+    for c, d in reduced.zones:
+        k = next((k for k, (a, b) in enumerate(normal.zones) if a - tol <= c and d <= b + tol),
+                 None)
+        if k is None:
+            raise ConvergenceError(
+                f"stick zone ({c:.12g}, {d:.12g}) at the reduced load P_S={reduced.P:.6g} lies "
+                "outside every contact zone: the Jager-Ciavarella state is not admissible",
+                {"contact_zones": normal.zones, "reduced_zones": reduced.zones,
+                 "P_reduced": reduced.P})
+        a, b = normal.zones[k]
+        worst = max(worst, (a - c) / normal.extent, (d - b) / normal.extent)
+        per[k].append((max(c, a), min(d, b)))
+    return per, worst
+
+
+def _slip_intervals(zone: tuple[float, float], stick: list[tuple[float, float]]
+                    ) -> tuple[tuple[float, float], ...]:
+    a, b = zone
+    cuts = [a] + [v for cd in stick for v in cd] + [b]
+    tiny = 1e-13 * (b - a)
+    return tuple((lo, hi) for lo, hi in zip(cuts[0::2], cuts[1::2], strict=True) if hi - lo > tiny)
+
+
+def _breakpoints(sol: StickSolution, k: int) -> np.ndarray:
+    """Contact edges and every stick edge (this and earlier stages) in zone k."""
+    pts = list(sol.normal.zones[k])
+    s: StickSolution | None = sol
+    while s is not None:
+        pts += [v for cd in s.stick_intervals[k] for v in cd]
+        s = s.previous
+    return np.unique(np.asarray(pts, float))
+
+
+# ---------------------------------------------------------------------------------------------
+# quadrature: Gauss-Legendre in the angle of x = lo + (hi - lo)(1 - cos t)/2
+# ---------------------------------------------------------------------------------------------
+@lru_cache(maxsize=8)
+def _legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.polynomial.legendre.leggauss(n)
+
+
+def cosine_rule(lo: float, hi: float, n: int = QUAD_NODES) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights on ``[lo, hi]`` for integrands with ``sqrt`` or ``1/sqrt`` end behaviour.
+
+    With ``x = lo + (hi - lo)(1 - cos t)/2``, ``t in [0, pi]``, both ``sqrt(x - lo)`` and
+    ``dx/sqrt(x - lo)`` are smooth in t, so Gauss-Legendre in t converges spectrally for the
+    pressures, shears and gaps of this problem (contact and stick edges of either type).
+    """
+    u, w = _legendre(int(n))
+    t = 0.5 * np.pi * (u + 1.0)
+    half = 0.5 * (hi - lo)
+    return lo + half * (1.0 - np.cos(t)), w * 0.5 * np.pi * half * np.sin(t)
+
+
+def _zone_rule(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    rules = [cosine_rule(lo, hi) for lo, hi in zip(pts[:-1], pts[1:], strict=True) if hi > lo]
+    return np.concatenate([r[0] for r in rules]), np.concatenate([r[1] for r in rules])
+
+
+# ---------------------------------------------------------------------------------------------
+# building a state and checking it
+# ---------------------------------------------------------------------------------------------
+def _state(normal: NormalSolution, mu: float, Q: float, Q0: float | None,
+           reduced: NormalSolution | None, P_red: float,
+           previous: StickSolution | None) -> StickSolution:
+    if Q0 is None:
+        stage, direction = 2, (1.0 if Q >= 0 else -1.0)
+    else:
+        stage, direction = 3, (-1.0 if Q0 >= 0 else 1.0)
+    per, poke = _assign_stick(normal, reduced)
+    sol = StickSolution(
+        normal=normal, mu=mu, Q=Q, Q0=Q0, stage=stage, direction=direction, P_reduced=P_red,
+        reduced=reduced,
+        stick_zones=tuple((s[0][0], s[-1][1]) if s else None for s in per),
+        stick_intervals=tuple(tuple(s) for s in per),
+        slip_zones=tuple(_slip_intervals(z, s) for z, s in zip(normal.zones, per, strict=True)),
+        full_slip_zones=tuple(k for k, s in enumerate(per) if not s),
+        previous=previous, residuals={})
+    return replace(sol, residuals={"containment": poke, **_self_check(sol)})
+
+
+def _self_check(sol: StickSolution) -> dict[str, float]:
+    """Coulomb's bound ``|q| <= mu p`` and ``int q dx = Q`` on nodes clustered at every edge."""
+    nrm = sol.normal
+    total, excess = 0.0, -np.inf
+    for k in range(nrm.n_zones):
+        x, w = _zone_rule(_breakpoints(sol, k))
+        q = sol.shear(x)
+        total += float(w @ q)
+        excess = max(excess, float(np.max(np.abs(q) - sol.mu * nrm.pressure(x))))
+    scale = sol.mu * nrm.P
+    res = {"friction": excess / (scale / nrm.extent), "equilibrium": abs(total - sol.Q) / scale}
+    if res["friction"] > FRICTION_TOL or res["equilibrium"] > EQUILIBRIUM_TOL:
+        raise ConvergenceError(
+            f"the Jager-Ciavarella state at Q={sol.Q:.6g} (stage {sol.stage}) violates "
+            f"|q| <= mu p by {res['friction']:.3e} mu P/extent or int q = Q by "
+            f"{res['equilibrium']:.3e} mu P: the reduced problem is not a stick state",
+            {"residuals": res, "stick_zones": sol.stick_zones, "contact_zones": nrm.zones,
+             "P_reduced": sol.P_reduced})
+    return res
+
+
+# ---------------------------------------------------------------------------------------------
+# public API
+# ---------------------------------------------------------------------------------------------
+def solve_stick(normal: NormalSolution, mu: float, Q: float, Q0: float | None = None, *,
+                allow_full_slip: bool = False) -> StickSolution:
+    """Stick zones, shear and slip at tangential load Q (paper Table 1 stages 2-3, Section 5).
+
+    ``Q0=None``: stage 2, Q rose monotonically from 0 (``|Q| < mu P``).  ``Q0`` given: stage 3,
+    Q rose to ``Q0`` (``|Q0| <= mu P``) and came back to ``Q`` (between ``-Q0`` and ``Q0``).
+    ``|Q| = mu P`` (or ``Q = -Q0`` with ``|Q0| = mu P``) is gross sliding: an :class:`InputError`
+    unless ``allow_full_slip=True``, which returns the full-slip state (all zones in
+    ``full_slip_zones``, ``q = +-mu p``, slip ``nan``).  Raises :class:`ConvergenceError` if the
+    state violates ``|q| <= mu p`` or ``int q = Q`` (see the module docstring).
+    """
+    _check_normal(normal)
+    mu = _check_mu(mu)
+    limit = mu * normal.P
+    if Q0 is None:
+        Q = _check_tangential("Q", Q, limit, allow_full_slip)
+        P_red = _stage2_load(normal.P, mu, Q)
+        reduced = _reduced_solutions(normal, np.array([P_red]))[0]
+        return _state(normal, mu, Q, None, reduced, P_red, None)
+    Q0 = _check_tangential("Q0", Q0, limit, True)
+    Q = _check_stage3_load(Q, Q0)
+    loads = np.array([_stage2_load(normal.P, mu, Q0), _stage3_load(normal.P, mu, Q, Q0)])
+    if loads[1] <= GROSS_SLIP_REL * normal.P and not allow_full_slip:
+        raise InputError(f"Q={Q!r} is not allowed: with |Q0| = mu P = {limit:.6g}, Q = -Q0 is "
+                         "gross sliding (no stick zone); pass allow_full_slip=True for that state")
+    red0, red = _reduced_solutions(normal, loads)
+    q0 = _state(normal, mu, Q0, None, red0, float(loads[0]), None)
+    return _state(normal, mu, Q, Q0, red, float(loads[1]), q0)
+
+
+def _cycle_loads(Q0: float, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Path samples (Q, stage, k): stage 2 has ``m + r`` steps, the half cycles ``m`` each."""
+    m = (n - 1) // 3
+    m2 = n - 1 - 2 * m
+    Q2 = Q0 * np.arange(m2 + 1) / m2
+    k = np.arange(1, m + 1)
+    Q3 = Q0 - 2 * Q0 * k / m
+    Q = np.concatenate([Q2, Q3, -Q3])
+    stage = np.concatenate([np.full(m2 + 1, 2), np.full(m, 3), np.full(m, 4)])
+    return Q, stage, np.concatenate([np.arange(m2 + 1) / m2, k / m, k / m])
+
+
+def cycle(normal: NormalSolution, mu: float, Q0: float, n: int = 100) -> CycleResult:
+    """The loading cycle ``0 -> Q0 -> -Q0 -> Q0`` at ``n`` samples (paper Table 1, stages 2-3).
+
+    Returns the stick-slip map (stick edges per zone vs Q), the states, and the dissipation per
+    steady cycle per zone (module docstring).  All reduced problems come from one continuation.
+    Needs ``0 < Q0 < mu P`` (at ``Q0 = mu P`` the gross-sliding slip, hence W, is unbounded)
+    and ``n >= 7``.
+    """
+    _check_normal(normal)
+    mu = _check_mu(mu)
+    Q0 = float(Q0)
+    if not (np.isfinite(Q0) and 0 < Q0 < mu * normal.P * (1 - GROSS_SLIP_REL)):
+        raise InputError(f"Q0={Q0!r} is not allowed in a cycle: need 0 < Q0 < mu P = "
+                         f"{mu * normal.P:.6g} (Q0 = mu P is gross sliding, W unbounded)")
+    if int(n) != n or n < 7:
+        raise InputError(f"n={n!r} is not allowed: need an integer n >= 7 (two samples per stage)")
+    Q, stage, frac = _cycle_loads(Q0, int(n))
+    P_red = normal.P - frac * Q0 / mu
+    uniq, inv = np.unique(P_red, return_inverse=True)
+    reds = _reduced_solutions(normal, uniq)
+    i_end = int(np.sum(stage == 2)) - 1
+    end = _state(normal, mu, Q0, None, reds[inv[i_end]], P_red[i_end], None)
+    mirror = _mirrored(end)
+    states = []
+    for i in range(Q.size):
+        red = reds[inv[i]]
+        if stage[i] == 2:
+            states.append(end if Q[i] == Q0 else _state(normal, mu, Q[i], None, red, P_red[i],
+                                                        None))
+        else:
+            prev, start = (end, Q0) if stage[i] == 3 else (mirror, -Q0)
+            states.append(_state(normal, mu, Q[i], start, red, P_red[i], prev))
+    return _cycle_result(normal, mu, Q0, Q, stage, P_red, tuple(states), reds, inv)
+
+
+def _mirrored(end: StickSolution) -> StickSolution:
+    """The stage-2 end state at ``-Q0`` (shear ``-q0``): the start of the return half cycle."""
+    return StickSolution(
+        normal=end.normal, mu=end.mu, Q=-end.Q, Q0=None, stage=2, direction=-end.direction,
+        P_reduced=end.P_reduced, reduced=end.reduced, stick_zones=end.stick_zones,
+        stick_intervals=end.stick_intervals, slip_zones=end.slip_zones,
+        full_slip_zones=end.full_slip_zones, previous=None, residuals=dict(end.residuals))
+
+
+def _cycle_result(normal, mu, Q0, Q, stage, P_red, states, reds, inv) -> CycleResult:
+    nz = normal.n_zones
+    edges = np.full((Q.size, nz, 2), np.nan)
+    for i, s in enumerate(states):
+        for k, cd in enumerate(s.stick_zones):
+            if cd is not None:
+                edges[i, k] = cd
+    end = states[int(np.sum(stage == 2)) - 1]
+    residuals = {key: max(s.residuals[key] for s in states)
+                 for key in ("friction", "equilibrium", "containment")}
+    residuals["rate"] = _rate_check(end, [reds[j] for j in np.unique(inv)])
+    return CycleResult(normal=normal, mu=mu, Q0=Q0, Q=Q, stage=stage, P_reduced=P_red,
+                       stick_edges=edges, full_slip=np.isnan(edges[:, :, 0]), states=states,
+                       W=_dissipation(end), residuals=residuals)
+
+
+def _dissipation(end: StickSolution) -> tuple[float, ...]:
+    """``W_k = 4 mu^2 int_{L_k} p g_S(x; P*) dx`` over the slip zones of the stage-2 end state."""
+    W = []
+    for k in range(end.normal.n_zones):
+        total = 0.0
+        for lo, hi in end.slip_zones[k]:
+            x, w = cosine_rule(lo, hi)
+            total += float(w @ (end.normal.pressure(x) * end.reduced.gap(x)))
+        W.append(4 * end.mu**2 * total)
+    return tuple(W)
+
+
+def _rate_check(end: StickSolution, reds: list[NormalSolution]) -> float:
+    """Condition (iii): ``g_S`` at the slip-zone points must not grow with the reduced load.
+
+    ``reds`` are ordered by increasing load.  Returns the largest increase of ``g_S`` between
+    consecutive loads, relative to ``A P`` (times mu it is the slip lost); raises if > RATE_TOL.
+    """
+    pts = [cosine_rule(lo, hi, RATE_NODES)[0] for zs in end.slip_zones for lo, hi in zs]
+    if not pts:
+        return 0.0
+    x = np.concatenate(pts)
+    g = np.array([r.gap(x) for r in reds])
+    worst = float(np.max(np.diff(g, axis=0), initial=0.0)) / (end.normal.A * end.normal.P)
+    if worst > RATE_TOL:
+        raise ConvergenceError(
+            f"the slip does not grow monotonically along the cycle (g_S rises by {worst:.3e} A P"
+            " with the reduced load): the Jager-Ciavarella loop integral does not hold",
+            {"rate": worst, "P_reduced": [r.P for r in reds]})
+    return worst
