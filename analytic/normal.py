@@ -237,11 +237,14 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
                 continue
             raise _NewtonFailed("singular Jacobian", {"residual": norm, "iteration": it}) from exc
         trial, zt, Ft, nt = _line_search(st, z, dz, norm, mode, profile, A)
-        if nt > 0.2 * norm and not fresh:
+        if nt > 0.3 * norm and not fresh:
             J = None  # stale Jacobian: refresh and retry from the same point
             continue
         if nt >= norm and nt > 1e3 * NEWTON_TOL:
             raise _NewtonFailed("no descent", {"residual": norm, "iteration": it})
+        step = zt - z
+        if step @ step > 0:  # Broyden's rank-one update keeps the reused Jacobian current
+            J = J + np.outer(Ft - F - J @ step, step) / (step @ step)
         st, z, F, fresh = trial, zt, Ft, False
         if np.max(np.abs(dz)) < 1e-15 and nt < 1e3 * NEWTON_TOL:
             norm = nt

@@ -134,10 +134,18 @@ class StickSolution:
         Stage 2: ``sigma mu [p(x; P) - p_S(x; P*)]``;
         stage 3: ``q0 - 2 sigma mu [p(x; P) - p_S(x; P**)]``.
         """
-        x = np.atleast_1d(np.asarray(x, float))
-        q = self.previous.shear(x) if self.previous is not None else np.zeros(x.shape)
-        p_s = self.reduced.pressure(x) if self.reduced is not None else 0.0
-        return q + self.factor * self.mu * (self.normal.pressure(x) - p_s)
+        return self._pressure_and_shear(np.atleast_1d(np.asarray(x, float)))[1]
+
+    def _pressure_and_shear(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``p(x)`` and ``q(x)``: the stage-1 pressure is evaluated once for the whole history."""
+        p = self.normal.pressure(x)
+        q = np.zeros(x.shape)
+        s: StickSolution | None = self
+        while s is not None:
+            p_s = s.reduced.pressure(x) if s.reduced is not None else 0.0
+            q += s.factor * s.mu * (p - p_s)
+            s = s.previous
+        return p, q
 
     def slip(self, x: np.ndarray | float) -> np.ndarray:
         """Relative slip of body 1 w.r.t. body 2 accumulated in this stage (vectorised).
@@ -363,14 +371,13 @@ def _state(normal: NormalSolution, mu: float, Q: float, Q0: float | None,
 def _self_check(sol: StickSolution) -> dict[str, float]:
     """Coulomb's bound ``|q| <= mu p`` and ``int q dx = Q`` on nodes clustered at every edge."""
     nrm = sol.normal
-    total, excess = 0.0, -np.inf
-    for k in range(nrm.n_zones):
-        x, w = _zone_rule(_breakpoints(sol, k))
-        q = sol.shear(x)
-        total += float(w @ q)
-        excess = max(excess, float(np.max(np.abs(q) - sol.mu * nrm.pressure(x))))
+    rules = [_zone_rule(_breakpoints(sol, k)) for k in range(nrm.n_zones)]
+    x = np.concatenate([r[0] for r in rules])
+    w = np.concatenate([r[1] for r in rules])
+    p, q = sol._pressure_and_shear(x)
     scale = sol.mu * nrm.P
-    res = {"friction": excess / (scale / nrm.extent), "equilibrium": abs(total - sol.Q) / scale}
+    res = {"friction": float(np.max(np.abs(q) - sol.mu * p)) / (scale / nrm.extent),
+           "equilibrium": abs(float(w @ q) - sol.Q) / scale}
     if res["friction"] > FRICTION_TOL or res["equilibrium"] > EQUILIBRIUM_TOL:
         raise ConvergenceError(
             f"the Jager-Ciavarella state at Q={sol.Q:.6g} (stage {sol.stage}) violates "
