@@ -8,78 +8,93 @@ only a starting point for Newton: the consistency, interconnection and admissibi
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from analytic._sie import Layout
 from analytic.profiles import Profile
 
-SCAN = 2001
 CHEB = 24
-MIN_POINTS = 4  # a zone narrower than this many scan points is too small to guess
+RAYS = np.geomspace(1e-12, 20.0, 240)  # distances from a minimum, in units of profile.scale
+
+
+@dataclass(frozen=True)
+class _Ray:
+    """``h0 - theta x`` tabulated outwards from one side of a minimum."""
+
+    x: np.ndarray
+    f: np.ndarray
+
+
+def _rays(profile: Profile, theta: float):
+    out = []
+    for lo, hi, v in profile.local_minima(theta):
+        sides = []
+        for x0, side in ((lo, -1.0), (hi, 1.0)):
+            x = np.concatenate([[x0], x0 + side * profile.scale * RAYS])
+            f = profile.h0(x) - theta * x
+            f[~np.isfinite(f)] = np.inf
+            sides.append(_Ray(x, f))
+        out.append((v, sides[0], sides[1]))
+    return out
+
+
+def _edge(ray: _Ray, level: float) -> float:
+    k = int(np.argmax(ray.f >= level)) if np.any(ray.f >= level) else ray.x.size - 1
+    if k == 0:
+        return float(ray.x[0])
+    f0, f1 = ray.f[k - 1], ray.f[k]
+    if not np.isfinite(f1):
+        return float(ray.x[k - 1])  # a corner (or the end of the support) bounds the zone
+    t = (level - f0) / (f1 - f0) if f1 > f0 else 1.0
+    return float(ray.x[k - 1] + t * (ray.x[k] - ray.x[k - 1]))
+
+
+def _zones(rays, level: float) -> list[tuple[float, float]]:
+    out: list[tuple[float, float]] = []
+    for v, left, right in rays:
+        if v >= level:
+            continue
+        a, b = _edge(left, level), _edge(right, level)
+        if out and a <= out[-1][1]:
+            out[-1] = (out[-1][0], max(b, out[-1][1]))
+        else:
+            out.append((a, b))
+    return out
+
+
+def _load(profile: Profile, theta: float, A: float, rays, level: float) -> float:
+    u = np.cos(np.pi * (np.arange(CHEB) + 0.5) / CHEB)
+    total = 0.0
+    for a, b in _zones(rays, level):
+        c, r = 0.5 * (a + b), 0.5 * (b - a)
+        s = c + r * u
+        total += float(np.sum((s - c) * (profile.dh0(s) - theta))) * np.pi / CHEB / A
+    return total
 
 
 def overlap_guess(profile: Profile, theta: float, P: float, A: float) -> Layout | None:
     """Overlap zones carrying about P, or None when no sensible guess exists."""
-    x, f = _scan(profile, theta)
-    if x is None:
+    rays = _rays(profile, theta)
+    if not rays:
         return None
-    f0 = float(np.min(f))
-    hi = 1e-6 * profile.scale
-    for _ in range(80):
-        if _load(profile, theta, A, x, f, f0 + hi) >= P:
+    f0 = min(v for v, _, _ in rays)
+    hi = 1e-14 * max(profile.scale, 1e-300)
+    for _ in range(140):
+        if _load(profile, theta, A, rays, f0 + hi) >= P:
             break
         hi *= 2.0
     else:
         return None
     lo = 0.0
-    for _ in range(50):
+    for _ in range(40):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if _load(profile, theta, A, x, f, f0 + mid) < P else (lo, mid)
-    zones = _zones(x, f, f0 + hi)
-    if not zones or any(b - a < MIN_POINTS * (x[1] - x[0]) for a, b in zones):
-        return None
+        lo, hi = (mid, hi) if _load(profile, theta, A, rays, f0 + mid) < P else (lo, mid)
+    zones = _zones(rays, f0 + hi)
     edges = np.asarray([v for z in zones for v in z], float)
-    pinned = np.isin(edges, profile.corners)
-    if np.any(pinned):
+    if edges.size == 0 or np.any(np.diff(edges) <= 0):
         return None
-    return Layout(edges, pinned)
-
-
-def _scan(profile: Profile, theta: float):
-    mins = [0.5 * (m[0] + m[1]) for m in profile.local_minima(theta)]
-    if not mins:
-        return None, None
-    span = (max(mins) - min(mins)) + profile.scale
-    lo, hi = profile.support
-    lo, hi = max(lo, min(mins) - 2 * span), min(hi, max(mins) + 2 * span)
-    x = np.linspace(lo, hi, SCAN)
-    return x, profile.h0(x) - theta * x
-
-
-def _zones(x: np.ndarray, f: np.ndarray, level: float) -> list[tuple[float, float]]:
-    below = np.concatenate([[False], f < level, [False]])
-    idx = np.flatnonzero(np.diff(below.astype(int)))
-    out = []
-    for s, e in zip(idx[::2], idx[1::2], strict=True):
-        a = _cross(x, f, level, s - 1, s) if s > 0 else x[0]
-        b = _cross(x, f, level, e - 1, e) if e < x.size else x[-1]
-        out.append((float(a), float(b)))
-    return out
-
-
-def _cross(x, f, level, i, j) -> float:
-    if not (np.isfinite(f[i]) and np.isfinite(f[j])):
-        return x[j] if np.isfinite(f[j]) else x[i]
-    t = (level - f[i]) / (f[j] - f[i])
-    return x[i] + t * (x[j] - x[i])
-
-
-def _load(profile: Profile, theta: float, A: float, x, f, level: float) -> float:
-    total = 0.0
-    k = np.arange(CHEB)
-    u = np.cos(np.pi * (k + 0.5) / CHEB)
-    for a, b in _zones(x, f, level):
-        c, r = 0.5 * (a + b), 0.5 * (b - a)
-        s = c + r * u
-        total += float(np.sum((s - c) * (profile.dh0(s) - theta))) * np.pi / CHEB / A
-    return total
+    if np.any(np.isin(edges, profile.corners)):
+        return None
+    return Layout(edges, np.zeros(edges.size, bool))

@@ -64,6 +64,29 @@ def nodes_for(length: float, clearance: float) -> int:
     return int(min(MAX_NODES, 8 * np.ceil(n / 8)))
 
 
+GRADING = 4.0
+
+
+@lru_cache(maxsize=4096)
+def graded_rule(length: float, clearance: float, eps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rule for ``int_0^length t^eps f(t) dt`` where f varies on the scale ``clearance`` near 0.
+
+    Sub-intervals grow geometrically from ``clearance``: Gauss-Jacobi (weight ``t^eps``) on the
+    first, Gauss-Legendre with ``t^eps`` folded into the weights on the others.
+    """
+    first = min(length, max(clearance, 1e-300))
+    t, w = mapped_rule(0.0, first, eps, 0.0, nodes_for(first, clearance))
+    ts, ws = [t], [w]
+    lo = first
+    while lo < length * (1 - 1e-14):
+        hi = min(length, lo * GRADING)
+        tt, ww = mapped_rule(lo, hi, 0.0, 0.0, 24)
+        ts.append(tt)
+        ws.append(ww * tt**eps)
+        lo = hi
+    return np.concatenate(ts), np.concatenate(ws)
+
+
 @dataclass(frozen=True)
 class Layout:
     """Contact topology: edges ``[a1, b1, a2, b2, ...]`` (absolute x) and singular flags."""
@@ -241,6 +264,42 @@ class System:
         pw = sq.s[None, :] ** np.arange(jmax + 1)[:, None]
         return pw @ (sq.dh * sq.Omega), np.abs(pw) @ (np.abs(sq.dh) * sq.absOmega)
 
+    def consistency_nodes(self) -> np.ndarray:
+        """Centres (shifted) of the ``e - n`` zones whose Lagrange polynomials span the
+        consistency conditions: a localised basis keeps the rows independent when the zones are
+        narrow and far apart (monomials ``s^j`` are then nearly dependent)."""
+        lay = self.layout
+        k = lay.e - lay.n
+        free_count = (~lay.pinned).reshape(-1, 2).sum(1)
+        order = np.argsort(-free_count, kind="stable")[:max(k, 0)]
+        z = self.e_hat.reshape(-1, 2)
+        return np.sort(z[order].mean(1))
+
+    def consistency(self) -> tuple[np.ndarray, np.ndarray]:
+        """Consistency residuals ``int_L L_k(s) h'(s) omega(s) ds`` (paper Eq. 12) in the Lagrange
+        basis on :meth:`consistency_nodes`, and the absolute sums used to scale them."""
+        c = self.consistency_nodes()
+        sq = self.sq
+        rows, norms = [], []
+        for k in range(c.size):
+            others = np.delete(c, k)
+            L = np.prod((sq.s[:, None] - others[None, :]) / (c[k] - others[None, :]), axis=1)
+            rows.append(L @ (sq.dh * sq.Omega))
+            norms.append(np.abs(L) @ (np.abs(sq.dh) * sq.absOmega))
+        return np.asarray(rows), np.asarray(norms)
+
+    def load(self) -> float:
+        """Total load: ``P = (1/A) int_L prod_k (s - c_k) h' omega ds`` for e >= n (the monic
+        degree-(e-n) polynomial; equal to ``mu_{e-n}/A`` once consistency holds) or
+        ``-beta_{n-e-1}/A`` for e < n."""
+        lay = self.layout
+        if lay.e < lay.n:
+            return float(-self.beta[lay.n - lay.e - 1] / self.A)
+        c = self.consistency_nodes()
+        sq = self.sq
+        poly = np.prod(sq.s[:, None] - c[None, :], axis=1) if c.size else np.ones_like(sq.s)
+        return float(poly @ (sq.dh * sq.Omega) / self.A)
+
     def w1(self) -> float:
         lay = self.layout
         return float(series_coeffs(self.e_hat, lay.eps, 1.0, 1)[1])
@@ -251,7 +310,7 @@ class System:
         n, e = lay.n, lay.e
         if e >= n:
             mu, _ = self.moments(e - n + 1)
-            P = mu[e - n] / A
+            P = self.load()
             Mc = (mu[e - n + 1] + self.w1() * mu[e - n]) / A
         else:
             beta = self.beta
@@ -291,26 +350,20 @@ class System:
         x0 = float(self.layout.edges[i])
         eps_i = float(self.layout.eps[i])
         clearance = float(np.min(np.abs(np.delete(self.layout.edges, i) - x0)))
-        n = nodes_for(float(np.max(length)) if length.size else 0.0, clearance)
-        t, w = jacobi_rule(n, 0.0, eps_i)  # weight (1 + t)^eps at the edge end
         out = np.zeros(length.shape)
-        ok = length > 0
-        if not np.any(ok):
-            return out
-        L, dr = length[ok][:, None], direction[ok][:, None]
-        half = 0.5 * L
-        x = x0 + dr * (half * (1 + t[None, :]))
-        weights = w[None, :] * half ** (1 + eps_i)
         skip = np.zeros(self.layout.edges.size, bool)
         skip[i] = True
-        rest = (sign_from_d(sign_exponent(x.ravel(), self.layout.edges, self.layout.pinned))
-                * w_abs(x.ravel(), self.layout.edges, self.layout.eps, skip)).reshape(x.shape)
-        H = pc.dh(x.ravel()) - self.theta
-        Bv = self.B(x.ravel() - self.xc, H, pc.d2h(x.ravel())).reshape(x.shape)
-        integral = np.sum(weights * rest * Bv, axis=1) / np.pi
-        x_end = x0 + dr[:, 0] * L[:, 0]
-        dh_int = (pc.h(x_end) - pc.h(np.full_like(x_end, x0))) - self.theta * (x_end - x0)
-        out[ok] = dr[:, 0] * integral - dh_int
+        for j in np.flatnonzero(length > 0):
+            t, w = graded_rule(float(length[j]), clearance, eps_i)
+            x = x0 + direction[j] * t
+            rest = (sign_from_d(sign_exponent(x, self.layout.edges, self.layout.pinned))
+                    * w_abs(x, self.layout.edges, self.layout.eps, skip))
+            H = pc.dh(x) - self.theta
+            Bv = self.B(x - self.xc, H, pc.d2h(x))
+            x_end = x0 + direction[j] * length[j]
+            dh_int = (float(pc.h(np.array([x_end]))[0]) - float(pc.h(np.array([x0]))[0])
+                      - self.theta * (x_end - x0))
+            out[j] = direction[j] * np.sum(w * rest * Bv) / np.pi - dh_int
         return out
 
     def _plain_segment(self, x_from: np.ndarray, x_to: np.ndarray, n: int = 48) -> np.ndarray:

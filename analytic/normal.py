@@ -22,6 +22,7 @@ from analytic.profiles import Profile
 
 NEWTON_TOL = 1e-13          # scaled residual; edges then agree to ~1e-12 relative
 NEWTON_MAXIT = 40
+FLOOR_TOL = 1e-10          # accepted when rounding stalls Newton (zones ~1e-6 of the span)
 FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
 ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
 MAX_TOPOLOGY_CHANGES = 12
@@ -183,10 +184,10 @@ def _residual(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[np.n
     slope = float(np.mean(np.abs(sys_.sq.dh))) if sys_.sq.dh.size else 0.0
     g_scale = A * P_ref + slope * st.ell + 1e-300
     if e > n:
-        mu, norm = sys_.moments(e - n - 1)
+        mu, norm = sys_.consistency()
         rows.extend(mu / (norm + 1e-300))
     if mode.P is not None and e >= n:
-        rows.append(sys_.load_and_moment()[0] / mode.P - 1.0)
+        rows.append(sys_.load() / mode.P - 1.0)
     rows.extend(sys_.interconnection(m) / g_scale for m in range(n - 1))
     if mode.M is not None:
         rows.append((sys_.load_and_moment()[1] - mode.M) / (P_ref * st.ell))
@@ -240,28 +241,41 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
         if nt > 0.3 * norm and not fresh:
             J = None  # stale Jacobian: refresh and retry from the same point
             continue
-        if nt >= norm and nt > 1e3 * NEWTON_TOL:
+        if nt > 0.5 * norm and norm < FLOOR_TOL:
+            break  # rounding floor reached with a fresh Jacobian: accept
+        if nt >= norm and nt > FLOOR_TOL:
             raise _NewtonFailed("no descent", {"residual": norm, "iteration": it})
         step = zt - z
         if step @ step > 0:  # Broyden's rank-one update keeps the reused Jacobian current
             J = J + np.outer(Ft - F - J @ step, step) / (step @ step)
         st, z, F, fresh = trial, zt, Ft, False
-        if np.max(np.abs(dz)) < 1e-15 and nt < 1e3 * NEWTON_TOL:
+        if np.max(np.abs(dz)) < 1e-15 and nt < FLOOR_TOL:
             norm = nt
             break
         norm = nt
     else:
-        if norm >= 1e3 * NEWTON_TOL:
+        if norm >= FLOOR_TOL:
             raise _NewtonFailed("too many iterations", {"residual": norm,
                                                         "iteration": NEWTON_MAXIT})
     st.jac = J
     return st, F
 
 
+def _fd_steps(z: np.ndarray, st: _State, mode: _Mode) -> np.ndarray:
+    """Finite-difference steps: an edge moves by FD_STEP times the width of its own zone (zones
+    may be many orders narrower than the span), other unknowns relative to their size."""
+    h = FD_STEP * np.maximum(1.0, np.abs(z))
+    free = _free_edges(st.layout, mode)
+    widths = np.diff(st.layout.edges.reshape(-1, 2), axis=1).ravel()
+    h[: free.size] = FD_STEP * widths[free // 2] / st.ell
+    return h
+
+
 def _jacobian(z, F, st, mode, profile, A) -> np.ndarray:
     J = np.empty((F.size, z.size))
+    steps = _fd_steps(z, st, mode)
     for j in range(z.size):
-        h = FD_STEP * max(1.0, abs(z[j])) if j < z.size else FD_STEP
+        h = steps[j]
         zp = z.copy()
         zp[j] += h
         trial = _unpack(zp, st, mode, A)
@@ -764,7 +778,7 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
         _validate(profile, float(P), A)
     th = 0.0 if theta is None else float(theta)
     mode = "vertical" if theta is None else "fixed-rotation"
-    st = _initial_state(profile, A, th, float(loads[order[0]]))
+    st, _ = _solve_fixed(profile, float(loads[order[0]]), A, th)
     prev = None
     for i in order:
         st, sys_, prev = _continue(st, float(loads[i]), profile, A, prev)
