@@ -5,7 +5,7 @@
 # exactly what is missing and the command to install it, and carries on (features degrade with a
 # clear message; the tests that need them skip with the reason).
 set -u
-PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri libgl1 libxrender1 libxext6 libx11-6 libsuitesparse-dev chromium"
+PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri libglx-mesa0 libgl1 libxrender1 libxt6 libxext6 libx11-6 libsuitesparse-dev chromium"
 missing=""
 for p in $PKGS; do
   dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"

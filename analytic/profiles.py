@@ -364,7 +364,7 @@ def _crossings(p: Piece, q: Piece, grid: np.ndarray) -> list[float]:
     if xs.size < 2:
         return []
     d = p.h(xs) - q.h(xs)
-    out = []
+    out = [float(v) for v in xs[d == 0.0]]  # a crossing exactly on a grid node
     for i in np.flatnonzero(np.sign(d[:-1]) * np.sign(d[1:]) < 0):
         out.append(brentq(lambda t: float(p.h(np.array([t]))[0] - q.h(np.array([t]))[0]),
                           xs[i], xs[i + 1], xtol=1e-15))

@@ -1,0 +1,74 @@
+"""multicontact.fem -- finite element model of frictional plane contact (scikit-fem).
+
+Two plane-strain elastic bodies (same E, nu): body 1 (upper, carries the profile via
+the initial gap h0(x)) and body 2 (lower, flat, bottom clamped); the top of body 1 is
+tied to a rigid plate (u, v, theta about the point (0, 0)) loaded by (Q, P, M) or with
+theta locked. Node-to-node penalty contact (optional augmented Lagrangian) and
+Coulomb friction with a return mapping, loaded along the paper's Table 1 path:
+stage 1 P: 0 -> P0 (Q = 0), stage 2 Q: 0 -> Q0, stage 3 Q: Q0 -> -Q0.
+
+Public API
+----------
+solve_history(h0, P0, Q0, mu, E, nu, *, M=None, mesh=None, contact=None,
+              increments=None, kinks=(), window=None, vtk_dir=None,
+              backend="auto") -> FemHistory
+    h0: vectorised callable x -> initial gap >= 0 (np.inf: contact impossible).
+    M: None = vertical indentation (rotation locked, M reported), else applied moment.
+    mesh: MeshSpec(level=1, order=1|2, W=None, H=None, n_window=48, growth=1.2,
+          margin=0.15, size_factor=25) | MeshFile(path, order=1) | path (str/Path) of
+          a meshio file with line sets contact_upper, contact_lower, top, bottom.
+    contact: ContactSettings(k_n=None, k_t=None, penalty_factor=100, augmented=False,
+          pen_tol=None, max_uzawa=30, newton_tol=1e-10, max_newton=40,
+          max_cutbacks=8); defaults k = 100 E / h, pen_tol = 1e-4 h.
+    increments: LoadPath(n_normal=10, stage2=None, stage3=None, n_tangential=12):
+          stage2 / stage3 are exact Q sample values (each becomes a step).
+    kinks: x of profile slope discontinuities (mesh nodes are put there).
+    window: (xmin, xmax) expected contact window, refined (required for MeshSpec).
+    vtk_dir: if given, write_vtk(history, vtk_dir).
+write_vtk(history, directory) -> Path of the .pvd time series.
+    backend: sparse solver ("auto" = cholmod > pypardiso > scipy-splu; the one that
+          ran is FemHistory.backend).
+FemHistory: steps, n_dofs, order, backend, timings (seconds: assembly,
+    factorisation+condensation, increments, recovery, history = all after
+    assembly), mu, E, nu, P0, Q0, h_min, n_candidates; .stage(k),
+    .at(stage, Q=..) (stages 2, 3) / .at(1, P=..), .displacement(step) -> (u1, u2)
+    dof vectors, .stress(step) -> per body (sxx, syy, sxy, szz) at nodal dofs.
+FemStep: index, stage, t, P, Q, M, interface (FemInterface: x, w, p, q, status
+    0 open / 1 stick / 2 slip, slip, penetration, gap), contact_zones ((a, b), ...),
+    stick_zones ((c, d) | None per contact zone), plate (u, v, theta),
+    reactions (P, Q, M), residuals, iterations.
+Errors: InputError(ValueError), ConvergenceError(RuntimeError) in fem.errors.
+
+Model notes: both bodies are flat rectangles [-W, W] x [0, H] / [-H, 0] around the
+window centre; the profile enters only through h0 in the gap (small-slope,
+half-plane assumption shared with the analytic solution). Body 1's top is clamped
+in the bulk problem and moved rigidly by the plate DOFs (rigid motion is stress
+free), so one CHOLMOD factorisation with the contact dofs ordered last gives the
+interface compliance directly (Schur complement); every Newton (active-set)
+iteration is then a small dense solve. Only interface nodes with finite h0 inside
+the window +- half its width are contact candidates; any other node penetrating
+raises "window too small". Equilibrium: the plate reactions recovered from the full
+field (K1 u1 on the top dofs) must equal (P, Q, M) to 1e-8 relative at every step.
+"""
+
+from .errors import ConvergenceError, InputError
+from .history import FemHistory, solve_history
+from .linsolve import available_backends
+from .results import FemInterface, FemStep
+from .settings import ContactSettings, LoadPath, MeshFile, MeshSpec
+from .vtk import write_vtk
+
+__all__ = [
+    "solve_history",
+    "write_vtk",
+    "FemHistory",
+    "FemStep",
+    "FemInterface",
+    "MeshSpec",
+    "MeshFile",
+    "ContactSettings",
+    "LoadPath",
+    "InputError",
+    "ConvergenceError",
+    "available_backends",
+]

@@ -1,0 +1,155 @@
+"""Bulk discretisation of the two linear elastic bodies (scikit-fem).
+
+mesh -> basis -> ``plane_strain_elasticity`` form -> assemble. The interface is
+described by matched node pairs (body-1 dof, body-2 dof at the same x) with their
+tributary lengths ``w_i = integral of phi_i over the interface`` (trapezoid weights
+for Q1, Simpson weights 1/6, 4/6, 1/6 for Q2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from skfem import (
+    Basis,
+    ElementQuad1,
+    ElementQuad2,
+    ElementVector,
+    FacetBasis,
+    LinearForm,
+    MeshQuad,
+    asm,
+)
+from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+from .mesh import TwoBodyMesh
+
+ELEMENTS = {1: ElementQuad1, 2: ElementQuad2}
+
+
+@dataclass(frozen=True)
+class Interface:
+    """Matched interface node pairs sorted by x.
+
+    x: node x coordinates; w: tributary lengths; dof1, dof2: scalar dof indices in
+    body 1 / body 2 (vector dof of component k is ``2*dof + k``).
+    """
+
+    x: np.ndarray
+    w: np.ndarray
+    dof1: np.ndarray
+    dof2: np.ndarray
+
+
+@dataclass(frozen=True)
+class Discretisation:
+    """Assembled two-body problem: bases, stiffness matrices, fixed dofs, interface.
+
+    bases, scalar_bases: per body (vector and scalar). stiffness: (K1, K2).
+    fixed: dofs of body 1's top (tied to the plate) and body 2's bottom (clamped).
+    E, nu: material; order: element order.
+    """
+
+    mesh: TwoBodyMesh
+    order: int
+    E: float
+    nu: float
+    bases: tuple
+    scalar_bases: tuple
+    stiffness: tuple
+    fixed: tuple
+    interface: Interface
+
+    @property
+    def n_dofs(self) -> int:
+        """Total number of displacement dofs of both bodies (before constraints)."""
+        return int(sum(b.N for b in self.bases))
+
+
+def plane_strain_elasticity(E: float, nu: float):
+    """Bilinear form of plane-strain isotropic elasticity (3-D Lame constants)."""
+    return linear_elasticity(*lame_parameters(E, nu))
+
+
+def stiffness(mesh: MeshQuad, order: int, E: float, nu: float) -> tuple[Basis, sp.csr_matrix]:
+    """Vector basis and plane-strain stiffness matrix of one body."""
+    basis = Basis(mesh, ElementVector(ELEMENTS[order]()))
+    return basis, asm(plane_strain_elasticity(E, nu), basis).tocsr()
+
+
+def facets_on(mesh: MeshQuad, nodes: np.ndarray) -> np.ndarray:
+    """Boundary facet indices whose end nodes all belong to ``nodes``."""
+    bf = mesh.boundary_facets()
+    return bf[np.isin(mesh.facets[:, bf], nodes).all(axis=0)]
+
+
+@LinearForm
+def unit_traction(v, w):
+    """Integral of a test function over a facet set (tributary lengths)."""
+    return v
+
+
+def interface_side(mesh: MeshQuad, nodes: np.ndarray, order: int):
+    """Scalar interface dofs of one body, sorted by x, with their weights."""
+    facets = facets_on(mesh, nodes)
+    scalar = Basis(mesh, ELEMENTS[order]())
+    dofs = scalar.get_dofs(facets).all()
+    weights = asm(unit_traction, FacetBasis(mesh, ELEMENTS[order](), facets=facets))
+    x = scalar.doflocs[0, dofs]
+    order_x = np.argsort(x)
+    return x[order_x], weights[dofs[order_x]], dofs[order_x]
+
+
+def discretise(mesh: TwoBodyMesh, order: int, E: float, nu: float) -> Discretisation:
+    """Assemble both bodies and pair their interface dofs."""
+    (b1, K1), (b2, K2) = (stiffness(m, order, E, nu) for m in mesh.bodies)
+    x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order)
+    x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order)
+    fixed = (
+        b1.get_dofs(facets_on(mesh.bodies[0], mesh.nodes["top"])).all(),
+        b2.get_dofs(facets_on(mesh.bodies[1], mesh.nodes["bottom"])).all(),
+    )
+    iface = Interface(x=0.5 * (x1 + x2), w=0.5 * (w1 + w2), dof1=d1, dof2=d2)
+    scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
+    return Discretisation(
+        mesh=mesh,
+        order=order,
+        E=E,
+        nu=nu,
+        bases=(b1, b2),
+        scalar_bases=scalars,
+        stiffness=(K1, K2),
+        fixed=fixed,
+        interface=iface,
+    )
+
+
+def free_dofs(disc: Discretisation) -> tuple[np.ndarray, np.ndarray]:
+    """Global free dofs (body-2 dofs offset by N1) and the global -> free index map."""
+    n1 = disc.bases[0].N
+    fixed = np.r_[disc.fixed[0], disc.fixed[1] + n1]
+    mask = np.ones(disc.n_dofs, dtype=bool)
+    mask[fixed] = False
+    free = np.flatnonzero(mask)
+    index = -np.ones(disc.n_dofs, dtype=np.int64)
+    index[free] = np.arange(free.size)
+    return free, index
+
+
+def reduced_stiffness(disc: Discretisation, free: np.ndarray) -> sp.csc_matrix:
+    """Block-diagonal stiffness of both bodies restricted to the free dofs."""
+    K = sp.block_diag(disc.stiffness, format="csr")
+    return K[free][:, free].tocsc()
+
+
+__all__ = [
+    "Discretisation",
+    "Interface",
+    "discretise",
+    "free_dofs",
+    "reduced_stiffness",
+    "stiffness",
+    "plane_strain_elasticity",
+]

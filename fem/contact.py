@@ -1,0 +1,258 @@
+"""Condensed frictional contact solver on the interface (penalty / augmented Lagrangian).
+
+Unknowns of one load increment: the pair forces ``lam = [lam_t, lam_n]`` on body 1
+(``-lam`` on body 2) and the plate DOFs ``z = (u_p, v_p, theta)`` (theta dropped in
+vertical-indentation mode). Kinematics: relative displacement of body 1 over body 2
+``d = C lam + B z`` with ``d_t = u_p``-part, ``d_n = v_p + theta x`` rigid part (plate
+rotation about the point (0, 0)). Gap ``g = h0 + d_n``.
+
+Constitutive laws per candidate pair j (tributary length w_j):
+- normal: ``p_j = max(0, pbar_j - k_n g_j)``, ``lam_n = w p`` (pbar = 0: penalty;
+  pbar = Uzawa multiplier: augmented Lagrangian);
+- tangential: trial ``tau = tau_old - k_t (d_t - d_t_old)`` (stick), Coulomb return
+  mapping ``tau = mu p sign(tau_trial)`` when ``|tau_trial| > mu p`` (slip);
+  ``lam_t = w tau``. History (tau_old, d_t_old) is the last converged state.
+- plate equilibrium: ``sum lam_t = -Q``, ``sum lam_n = P``, ``sum x lam_n = M``.
+
+The laws are piecewise linear in (lam, z), so the semi-smooth Newton method with the
+consistent tangent is the primal-dual active-set iteration: fix the sets
+(open / stick / slip+sign), solve the small dense linear system, re-classify, stop
+when the sets repeat and the law residual is below tolerance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+OPEN, STICK, SLIP = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class InterfaceProblem:
+    """Condensed interface problem of the candidate pairs (finite h0).
+
+    C: (2n, 2n) relative-displacement compliance, order [t..., n...].
+    x, w, h0: pair x, tributary length, initial gap. mu: friction coefficient.
+    k_n, k_t: penalty stiffness (stress / length). lock_theta: vertical indentation.
+    """
+
+    C: np.ndarray
+    x: np.ndarray
+    w: np.ndarray
+    h0: np.ndarray
+    mu: float
+    k_n: float
+    k_t: float
+    lock_theta: bool
+
+    @property
+    def n(self) -> int:
+        """Number of candidate pairs."""
+        return self.x.size
+
+    @property
+    def n_plate(self) -> int:
+        """Number of free plate DOFs (2 if theta is locked, else 3)."""
+        return 2 if self.lock_theta else 3
+
+    def plate_matrix(self) -> np.ndarray:
+        """B: rigid relative displacement of the pairs per plate DOF (u_p, v_p, theta)."""
+        n = self.n
+        B = np.zeros((2 * n, 3))
+        B[:n, 0] = 1.0
+        B[n:, 1] = 1.0
+        B[n:, 2] = self.x
+        return B[:, : self.n_plate]
+
+
+@dataclass(frozen=True)
+class Load:
+    """Plate load: normal force P, tangential force Q, moment M (None: theta locked)."""
+
+    P: float
+    Q: float
+    M: float | None
+
+
+@dataclass(frozen=True)
+class ContactState:
+    """Converged interface state: pair forces, relative displacement, plate DOFs, status."""
+
+    lam: np.ndarray
+    d: np.ndarray
+    z: np.ndarray
+    status: np.ndarray
+    pbar: np.ndarray
+    load: Load
+    iterations: int = 0
+
+
+class NotConverged(Exception):
+    """Internal: the active-set iteration of one (sub)increment failed."""
+
+
+def initial_state(prob: InterfaceProblem, M0: float | None) -> ContactState:
+    """Unloaded state: zero forces and displacements, everything open."""
+    n = prob.n
+    return ContactState(
+        lam=np.zeros(2 * n),
+        d=np.zeros(2 * n),
+        z=np.zeros(3),
+        status=np.zeros(n, dtype=np.int8),
+        pbar=np.zeros(n),
+        load=Load(0.0, 0.0, None if M0 is None else 0.0),
+    )
+
+
+def trial(prob: InterfaceProblem, old: ContactState, d: np.ndarray, pbar: np.ndarray):
+    """Trial pressure and trial shear stress (on body 1) for relative displacement d."""
+    n = prob.n
+    p_tr = pbar - prob.k_n * (prob.h0 + d[n:])
+    tau_tr = old.lam[:n] / prob.w - prob.k_t * (d[:n] - old.d[:n])
+    return p_tr, tau_tr
+
+
+def classify(prob: InterfaceProblem, old: ContactState, d: np.ndarray, pbar: np.ndarray):
+    """Status (open/stick/slip) and slip sign from the trial state."""
+    p_tr, tau_tr = trial(prob, old, d, pbar)
+    status = np.where(p_tr > 0, STICK, OPEN).astype(np.int8)
+    slip = (p_tr > 0) & (np.abs(tau_tr) > prob.mu * p_tr)
+    status[slip] = SLIP
+    return status, np.sign(tau_tr)
+
+
+def law_forces(prob: InterfaceProblem, old: ContactState, d: np.ndarray, pbar: np.ndarray):
+    """Pair forces given by the contact laws (return mapping) at relative displacement d."""
+    p_tr, tau_tr = trial(prob, old, d, pbar)
+    p = np.maximum(p_tr, 0.0)
+    tau = np.clip(tau_tr, -prob.mu * p, prob.mu * p)
+    return np.r_[prob.w * tau, prob.w * p]
+
+
+def law_residual(prob: InterfaceProblem, old: ContactState, lam, d, load: Load, pbar) -> float:
+    """Largest violation of the contact laws and of force equilibrium, relative to P."""
+    n = prob.n
+    laws = np.max(np.abs(lam - law_forces(prob, old, d, pbar)))
+    equil = max(abs(lam[:n].sum() + load.Q), abs(lam[n:].sum() - load.P))
+    return float(max(laws, equil) / max(abs(load.P), 1e-300))
+
+
+def active_system(prob: InterfaceProblem, old: ContactState, status, sign, load: Load, pbar):
+    """Dense linear system of the active pairs and plate DOFs for fixed sets."""
+    n, a = prob.n, np.flatnonzero(status > OPEN)
+    na, nz = a.size, prob.n_plate
+    rows = np.r_[a, a + n]
+    Ca = prob.C[np.ix_(rows, rows)]
+    Ba = prob.plate_matrix()[rows]
+    A = np.zeros((2 * na + nz, 2 * na + nz))
+    b = np.zeros(2 * na + nz)
+    A[: 2 * na, : 2 * na] = Ca
+    A[: 2 * na, 2 * na :] = Ba
+    idx = np.arange(na)
+    A[na + idx, na + idx] += 1.0 / (prob.w[a] * prob.k_n)
+    b[na : 2 * na] = pbar[a] / prob.k_n - prob.h0[a]
+    A[idx, idx] += 1.0 / (prob.w[a] * prob.k_t)
+    b[:na] = old.lam[a] / (prob.w[a] * prob.k_t) + old.d[a]
+    slip = np.flatnonzero(status[a] == SLIP)
+    A[slip] = 0.0
+    A[slip, slip] = 1.0
+    A[slip, na + slip] = -prob.mu * sign[a][slip]
+    b[slip] = 0.0
+    if np.any(status[a] == STICK):
+        A[2 * na, :na] = 1.0
+        b[2 * na] = -load.Q
+    else:
+        A[2 * na, 2 * na] = 1.0
+        b[2 * na] = old.z[0]
+    A[2 * na + 1, na : 2 * na] = 1.0
+    b[2 * na + 1] = load.P
+    if not prob.lock_theta:
+        A[2 * na + 2, na : 2 * na] = prob.x[a]
+        b[2 * na + 2] = load.M
+    return A, b, a
+
+
+def solve_sets(prob: InterfaceProblem, old: ContactState, status, sign, load: Load, pbar):
+    """Forces, plate DOFs and relative displacement for fixed active sets."""
+    A, b, a = active_system(prob, old, status, sign, load, pbar)
+    try:
+        y = np.linalg.solve(A, b)
+    except np.linalg.LinAlgError as exc:
+        raise NotConverged(f"singular active-set system ({a.size} active pairs)") from exc
+    n, na = prob.n, a.size
+    lam = np.zeros(2 * n)
+    lam[a], lam[a + n] = y[:na], y[na : 2 * na]
+    z = np.zeros(3)
+    z[: prob.n_plate] = y[2 * na :]
+    d = prob.C[:, np.r_[a, a + n]] @ y[: 2 * na] + prob.plate_matrix() @ y[2 * na :]
+    return lam, z, d
+
+
+def first_guess(prob: InterfaceProblem, old: ContactState) -> np.ndarray:
+    """Elastic predictor: previously active pairs stick; first-touch pairs if none is active."""
+    status = np.where(old.status > OPEN, STICK, OPEN).astype(np.int8)
+    if not np.any(status):
+        gap = prob.h0 + old.d[prob.n :]
+        status[gap <= gap.min() + 1e-12 * max(1.0, abs(gap.min()))] = STICK
+    return status
+
+
+def solve_increment(
+    prob: InterfaceProblem,
+    old: ContactState,
+    load: Load,
+    pbar: np.ndarray,
+    tol: float,
+    max_iter: int,
+) -> ContactState:
+    """Semi-smooth Newton (active-set) iteration for one load increment."""
+    status = first_guess(prob, old)
+    sign = np.sign(old.lam[: prob.n])
+    seen = set()
+    for it in range(1, max_iter + 1):
+        lam, z, d = solve_sets(prob, old, status, sign, load, pbar)
+        new_status, new_sign = classify(prob, old, d, pbar)
+        if not np.any(new_status):
+            new_status[np.argmin(prob.h0 + d[prob.n :])] = STICK
+        key = (new_status.tobytes(), (new_sign * (new_status == SLIP)).tobytes())
+        same = np.array_equal(new_status, status) and np.array_equal(
+            new_sign[status == SLIP], sign[status == SLIP]
+        )
+        residual = law_residual(prob, old, lam, d, load, pbar)
+        if same and residual <= tol:
+            return ContactState(
+                lam=lam, d=d, z=z, status=status, pbar=pbar, load=load, iterations=it
+            )
+        if key in seen and not same:
+            raise NotConverged(f"active set cycles after {it} iterations")
+        seen.add(key)
+        status, sign = new_status, new_sign
+    raise NotConverged(f"no convergence in {max_iter} iterations (law residual {residual:.3e})")
+
+
+def penetration(prob: InterfaceProblem, state: ContactState) -> float:
+    """Largest penetration -g over the candidate pairs (0 if none)."""
+    return float(max(0.0, -np.min(prob.h0 + state.d[prob.n :])))
+
+
+def solve_augmented(
+    prob: InterfaceProblem, old: ContactState, load: Load, settings
+) -> ContactState:
+    """One increment; with ``settings.augmented`` Uzawa updates until penetration <= pen_tol."""
+    pbar = old.lam[prob.n :] / prob.w if settings.augmented else np.zeros(prob.n)
+    state = solve_increment(prob, old, load, pbar, settings.newton_tol, settings.max_newton)
+    if not settings.augmented:
+        return state
+    for _ in range(settings.max_uzawa):
+        if penetration(prob, state) <= settings.pen_tol:
+            return state
+        pbar = state.lam[prob.n :] / prob.w
+        state = solve_increment(prob, old, load, pbar, settings.newton_tol, settings.max_newton)
+    if penetration(prob, state) <= settings.pen_tol:
+        return state
+    raise NotConverged(
+        f"Uzawa: penetration {penetration(prob, state):.3e} > pen_tol="
+        f"{settings.pen_tol:.3e} after {settings.max_uzawa} updates"
+    )

@@ -1,0 +1,410 @@
+"""Three-stage load history driver: ``solve_history`` and ``FemHistory``.
+
+mesh -> discretise -> factorise once -> interface compliance -> per increment the
+condensed contact solve (with cut-back) -> one blocked solve recovering the full
+field of every increment -> plate reactions checked against (P, Q, M).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .bulk import Discretisation, discretise, free_dofs, reduced_stiffness
+from .condense import condense, pair_dofs
+from .contact import (
+    ContactState,
+    InterfaceProblem,
+    Load,
+    NotConverged,
+    initial_state,
+    penetration,
+    solve_augmented,
+)
+from .errors import ConvergenceError, InputError
+from .linsolve import Factor
+from .mesh import TwoBodyMesh, build_mesh, read_mesh
+from .results import FemInterface, FemStep, contact_and_stick, runs
+from .settings import (
+    ContactSettings,
+    LoadPath,
+    MeshFile,
+    MeshSpec,
+    validate_loads,
+    validate_material,
+    validate_path,
+)
+
+#: Plate reactions must reproduce the applied loads to this relative accuracy.
+EQUILIBRIUM_TOL = 1e-8
+#: A contact zone needs at least this many nodes for a meaningful edge estimate.
+MIN_ZONE_NODES = 5
+
+
+@dataclass(frozen=True)
+class FemHistory:
+    """Converged increments of the three-stage history plus model information.
+
+    steps: all increments in load order. n_dofs: displacement dofs of both bodies.
+    order: element order. backend: sparse solver that ran ('cholmod', 'pypardiso'
+    or 'scipy-splu'). timings: seconds for 'assembly' (mesh + stiffness),
+    'factorisation+condensation' (the one factorisation and the interface
+    compliance), 'increments' (all contact solves), 'recovery' (full fields and
+    reaction checks of all increments) and 'history' (everything after assembly).
+    mu, E, nu, P0, Q0: the inputs. h_min: finest
+    interface element length. n_candidates: interface pairs in the contact model.
+    """
+
+    steps: tuple
+    n_dofs: int
+    order: int
+    backend: str
+    timings: dict
+    mu: float
+    E: float
+    nu: float
+    P0: float
+    Q0: float
+    h_min: float
+    n_candidates: int
+    fields: object = field(repr=False, compare=False)
+
+    def stage(self, k: int) -> tuple:
+        """Steps of stage k (1, 2 or 3)."""
+        return tuple(s for s in self.steps if s.stage == k)
+
+    def at(self, stage: int, Q: float | None = None, P: float | None = None) -> FemStep:
+        """The step of ``stage`` at tangential load Q (stages 2, 3) or normal load P (stage 1)."""
+        steps = self.stage(stage)
+        key, val = ("P", P) if stage == 1 else ("Q", Q)
+        if val is None:
+            raise InputError(f"at(stage={stage}) needs {key}=...")
+        match = [s for s in steps if abs(getattr(s, key) - val) <= 1e-9 * max(self.P0, 1.0)]
+        if not match:
+            have = [getattr(s, key) for s in steps]
+            raise InputError(f"{key}={val!r} is not a step of stage {stage}: available {have}")
+        return match[-1]
+
+    def displacement(self, step: FemStep) -> tuple[np.ndarray, np.ndarray]:
+        """Full-field displacement vectors (body 1, body 2) of a step."""
+        return self.fields.displacement(step.index)
+
+    def stress(self, step: FemStep) -> tuple[np.ndarray, np.ndarray]:
+        """Nodal-projected stress (sxx, syy, sxy, szz) per body, shape (4, n_points)."""
+        return self.fields.stress(step.index)
+
+
+@dataclass(frozen=True)
+class Model:
+    """Everything fixed during the history: discretisation, factor, interface problem."""
+
+    disc: Discretisation
+    factor: Factor
+    free: np.ndarray
+    f1: np.ndarray
+    f2: np.ndarray
+    cand: np.ndarray
+    prob: InterfaceProblem
+    h0_all: np.ndarray
+
+
+def resolve_mesh(mesh, window, kinks) -> tuple[TwoBodyMesh, int]:
+    """Build or read the two-body mesh; return it and the element order."""
+    if mesh is None:
+        mesh = MeshSpec()
+    if isinstance(mesh, (str, Path)):
+        mesh = MeshFile(Path(mesh))
+    if isinstance(mesh, MeshFile):
+        if mesh.order not in (1, 2):
+            raise InputError(f"order={mesh.order!r} is not allowed: need 1 or 2")
+        return read_mesh(mesh), mesh.order
+    if not isinstance(mesh, MeshSpec):
+        raise InputError(f"mesh={mesh!r} is not allowed: need a MeshSpec, MeshFile or a path")
+    if window is None:
+        raise InputError(
+            "window=None is not allowed with a generated mesh: pass the expected "
+            "contact window (xmin, xmax) so that the mesh is refined there"
+        )
+    return build_mesh(mesh, tuple(float(v) for v in window), kinks), mesh.order
+
+
+def resolve_contact(contact: ContactSettings | None, E: float, h: float) -> ContactSettings:
+    """Fill the default penalty stiffness and penetration tolerance."""
+    c = contact or ContactSettings()
+    k_n = c.k_n if c.k_n is not None else c.penalty_factor * E / h
+    k_t = c.k_t if c.k_t is not None else k_n
+    pen_tol = c.pen_tol if c.pen_tol is not None else 1e-4 * h
+    for name, val in (("k_n", k_n), ("k_t", k_t), ("pen_tol", pen_tol)):
+        if not np.isfinite(val) or val <= 0:
+            raise InputError(f"{name}={val!r} is not allowed: need a positive number")
+    return replace(c, k_n=k_n, k_t=k_t, pen_tol=pen_tol)
+
+
+def gap_at(h0: Callable, x: np.ndarray) -> np.ndarray:
+    """Evaluate the user gap function and check it (finite or +inf, >= 0)."""
+    g = np.asarray(h0(np.asarray(x, float)), dtype=float)
+    if g.shape != x.shape:
+        g = np.broadcast_to(g, x.shape).astype(float)
+    bad = np.isnan(g) | (
+        g < -1e-12 * max(1.0, float(np.max(np.abs(g[np.isfinite(g)]), initial=1.0)))
+    )
+    if np.any(bad) or np.any(g == -np.inf):
+        i = int(np.flatnonzero(bad | (g == -np.inf))[0])
+        raise InputError(
+            f"h0({x[i]:g})={g[i]!r} is not allowed: need h0 >= 0 (or +inf where "
+            "contact is impossible)"
+        )
+    return np.maximum(g, 0.0)
+
+
+def build_model(
+    disc: Discretisation,
+    h0: Callable,
+    mu: float,
+    window,
+    contact: ContactSettings,
+    lock_theta: bool,
+    backend: str,
+    timings: dict,
+) -> Model:
+    """Factorise the bulk, pick the candidate pairs and condense onto them."""
+    free, index = free_dofs(disc)
+    x = disc.interface.x
+    h0_all = gap_at(h0, x)
+    cand = np.isfinite(h0_all)
+    if window is not None:
+        width = window[1] - window[0]
+        cand &= (x >= window[0] - 0.5 * width) & (x <= window[1] + 0.5 * width)
+    cand = np.flatnonzero(cand)
+    if cand.size < 2:
+        raise InputError("h0 is infinite at (nearly) all interface nodes: no contact is possible")
+    f1, f2 = pair_dofs(disc, index, cand)
+    t0 = time.perf_counter()
+    factor, C = condense(reduced_stiffness(disc, free), f1, f2, backend)
+    timings["factorisation+condensation"] = time.perf_counter() - t0
+    prob = InterfaceProblem(
+        C=C,
+        x=x[cand],
+        w=disc.interface.w[cand],
+        h0=h0_all[cand],
+        mu=mu,
+        k_n=contact.k_n,
+        k_t=contact.k_t,
+        lock_theta=lock_theta,
+    )
+    return Model(
+        disc=disc, factor=factor, free=free, f1=f1, f2=f2, cand=cand, prob=prob, h0_all=h0_all
+    )
+
+
+def load_schedule(P0: float, Q0: float, M: float | None, path: LoadPath):
+    """List of (stage, t, Load) targets of the whole history."""
+    s2, s3 = validate_path(path, Q0)
+    out = []
+    for k in range(1, path.n_normal + 1):
+        f = k / path.n_normal
+        out.append((1, f, Load(P0 * f, 0.0, None if M is None else M * f)))
+    if Q0 > 0:
+        out += [(2, 1.0 + q / Q0, Load(P0, float(q), M)) for q in s2]
+        out += [(3, 2.0 + (Q0 - q) / (2 * Q0), Load(P0, float(q), M)) for q in s3]
+    return out
+
+
+def blend(a: Load, b: Load, f: float) -> Load:
+    """Load a + f (b - a)."""
+    M = None if b.M is None else a.M + f * (b.M - a.M)
+    return Load(a.P + f * (b.P - a.P), a.Q + f * (b.Q - a.Q), M)
+
+
+def advance(
+    prob: InterfaceProblem, old: ContactState, target: Load, contact: ContactSettings, stage: int
+) -> ContactState:
+    """Reach ``target`` from ``old``, halving the step on failure (up to max_cutbacks times)."""
+    n_sub, last = 1, ""
+    for _ in range(contact.max_cutbacks + 1):
+        state, its = old, 0
+        try:
+            for k in range(1, n_sub + 1):
+                state = solve_augmented(prob, state, blend(old.load, target, k / n_sub), contact)
+                its += state.iterations
+            return replace(state, iterations=its)
+        except NotConverged as exc:
+            last = str(exc)
+            n_sub *= 2
+    raise ConvergenceError(
+        f"stage {stage}: no convergence to P={target.P:g}, Q={target.Q:g} even with "
+        f"{n_sub // 2} sub-increments; last failure: {last}; previous state P={old.load.P:g}, "
+        f"Q={old.load.Q:g}, {int(np.count_nonzero(old.status))} active pairs, "
+        f"max penetration {penetration(prob, old):.3e}"
+    )
+
+
+def run_increments(prob: InterfaceProblem, schedule, contact: ContactSettings, M):
+    """Converged states of all scheduled increments."""
+    state = initial_state(prob, M)
+    states = []
+    for stage, _, target in schedule:
+        state = advance(prob, state, target, contact, stage)
+        states.append(state)
+    return states
+
+
+def check_zone_size(prob: InterfaceProblem, state: ContactState, h: float) -> None:
+    """Raise InputError if a contact zone at full load holds fewer than MIN_ZONE_NODES nodes."""
+    for i0, i1 in runs(state.status > 0):
+        if i1 - i0 + 1 < MIN_ZONE_NODES:
+            raise InputError(
+                f"mesh too coarse: the contact zone near x=[{prob.x[i0]:g}, {prob.x[i1]:g}] "
+                f"holds {i1 - i0 + 1} nodes at P0, need >= {MIN_ZONE_NODES} (element size "
+                f"{h:g}): raise MeshSpec.level or narrow the window"
+            )
+
+
+def solve_history(
+    h0: Callable,
+    P0: float,
+    Q0: float,
+    mu: float,
+    E: float,
+    nu: float,
+    *,
+    M: float | None = None,
+    mesh=None,
+    contact: ContactSettings | None = None,
+    increments: LoadPath | None = None,
+    kinks=(),
+    window=None,
+    vtk_dir=None,
+    backend: str = "auto",
+) -> FemHistory:
+    """Solve the three-stage load history (paper, Table 1) by the finite element method.
+
+    Parameters: h0 vectorised gap callable (np.inf where contact is impossible);
+    P0 > 0 normal force; 0 <= Q0 <= mu P0 tangential amplitude; mu friction
+    coefficient; E, nu (-1 < nu < 0.5) of both bodies (plane strain); M: applied
+    moment (None: plate rotation locked = vertical indentation, M reported);
+    mesh: MeshSpec, MeshFile or path; contact: ContactSettings; increments:
+    LoadPath; kinks: x of profile corners (mesh nodes placed there); window:
+    expected contact window (xmin, xmax) for refinement (required for generated
+    meshes; with a mesh file it limits the candidate contact nodes); vtk_dir:
+    write the VTK time series there; backend: sparse solver ('auto', 'cholmod',
+    'pypardiso', 'scipy-splu').
+    """
+    validate_material(E, nu)
+    validate_loads(P0, Q0, mu, M)
+    schedule = load_schedule(P0, Q0, M, increments or LoadPath())
+    timings = {}
+    t0 = time.perf_counter()
+    tbm, order = resolve_mesh(mesh, window, kinks)
+    disc = discretise(tbm, order, E, nu)
+    timings["assembly"] = time.perf_counter() - t0
+    t_hist = time.perf_counter()
+    settings = resolve_contact(contact, E, tbm.h_min)
+    model = build_model(disc, h0, mu, window, settings, M is None, backend, timings)
+    t0 = time.perf_counter()
+    states = run_increments(model.prob, schedule, settings, M)
+    timings["increments"] = time.perf_counter() - t0
+    stage1_end = max(i for i, s in enumerate(schedule) if s[0] == 1)
+    check_zone_size(model.prob, states[stage1_end], tbm.h_min)
+    from .fields import FieldRecovery
+
+    t0 = time.perf_counter()
+    fields = FieldRecovery.from_states(model, states)
+    steps = tuple(
+        make_step(model, i, sched, st, fields, P0, mu)
+        for i, (sched, st) in enumerate(zip(schedule, states, strict=True))
+    )
+    timings["recovery"] = time.perf_counter() - t0
+    timings["history"] = time.perf_counter() - t_hist
+    hist = FemHistory(
+        steps=steps,
+        n_dofs=disc.n_dofs,
+        order=order,
+        backend=model.factor.backend,
+        timings=timings,
+        mu=mu,
+        E=E,
+        nu=nu,
+        P0=P0,
+        Q0=Q0,
+        h_min=tbm.h_min,
+        n_candidates=int(model.cand.size),
+        fields=fields,
+    )
+    if vtk_dir is not None:
+        from .vtk import write_vtk
+
+        write_vtk(hist, vtk_dir)
+    return hist
+
+
+def make_step(
+    model: Model, i: int, sched, st: ContactState, fields, P0: float, mu: float
+) -> FemStep:
+    """Package one converged state as a FemStep (all interface nodes, zones, reactions)."""
+    stage, t, load = sched
+    prob, cand = model.prob, model.cand
+    iface = model.disc.interface
+    n_all, n = iface.x.size, prob.n
+    p, q, slip = np.zeros(n_all), np.zeros(n_all), np.zeros(n_all)
+    status = np.zeros(n_all, dtype=np.int8)
+    p[cand] = st.lam[n:] / prob.w
+    q[cand] = -st.lam[:n] / prob.w
+    status[cand] = st.status
+    slip[cand] = np.where(st.status > 0, st.d[:n] + st.lam[:n] / (prob.w * prob.k_t), 0.0)
+    gap = model.h0_all + fields.normal_jump(i)
+    gap[cand] = prob.h0 + st.d[n:]
+    candidate = np.zeros(n_all, dtype=bool)
+    candidate[cand] = True
+    check_outside_gap(gap, candidate, iface.x, stage, load)
+    zones, sticks = contact_and_stick(iface.x, p, q, status, candidate, mu)
+    M = float(np.sum(iface.x * p * iface.w)) if load.M is None else load.M
+    reac = fields.reactions(i)
+    scale = (P0, P0, P0 * max(float(np.max(np.abs(prob.x))), 1e-300))
+    res = tuple(abs(r - v) / s for r, v, s in zip(reac, (load.P, load.Q, M), scale, strict=True))
+    if max(res) > EQUILIBRIUM_TOL:
+        raise ConvergenceError(
+            f"equilibrium check failed at stage {stage}, t={t:g}: plate reactions "
+            f"(P, Q, M)={reac} vs applied ({load.P:g}, {load.Q:g}, {M:g}); "
+            f"relative residuals {res} > {EQUILIBRIUM_TOL:g}"
+        )
+    fi = FemInterface(
+        x=iface.x,
+        w=iface.w,
+        p=p,
+        q=q,
+        status=status,
+        slip=slip,
+        penetration=np.maximum(-np.where(np.isfinite(gap), gap, 0.0), 0.0),
+        gap=gap,
+    )
+    return FemStep(
+        index=i,
+        stage=stage,
+        t=float(t),
+        P=load.P,
+        Q=load.Q,
+        M=M,
+        interface=fi,
+        contact_zones=zones,
+        stick_zones=sticks,
+        plate=tuple(float(v) for v in st.z),
+        reactions=reac,
+        residuals=res,
+        iterations=st.iterations,
+    )
+
+
+def check_outside_gap(gap, candidate, x, stage, load) -> None:
+    """Nodes outside the contact model must stay open (else the window was too small)."""
+    bad = (~candidate) & np.isfinite(gap) & (gap < 0)
+    if np.any(bad):
+        raise InputError(
+            f"window too small: interface node x={x[np.flatnonzero(bad)[0]]:g} outside "
+            f"the candidate region penetrates at stage {stage} (P={load.P:g}, "
+            f"Q={load.Q:g}); pass a wider window"
+        )

@@ -1,0 +1,171 @@
+"""User-facing settings: mesh specification, contact parameters and load path.
+
+All are frozen dataclasses, validated by :func:`validate_*` helpers that raise
+:class:`fem.errors.InputError` with a message naming the bad value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+#: Elements across the contact window at level 0 (the default mesh is level 1).
+N_WINDOW_LEVEL0 = 48
+#: Default half-width and depth as multiples of the window half-width: large enough
+#: that the finite-body error on the Hertz width stays well below 0.5 % (measured in
+#: tests/verification/test_fem_hertz.py::test_hertz_finite_size).
+SIZE_FACTOR = 25.0
+
+
+@dataclass(frozen=True)
+class MeshSpec:
+    """Graded tensor-product quad mesh of the two bodies.
+
+    level: refinement level; the fine element size in the window is
+        ``(xmax - xmin) / (n_window * 2**level)``.
+    order: 1 (ElementQuad1) or 2 (ElementQuad2, 9-node Lagrange).
+    W: half-width of both bodies (length), centred on the window centre;
+        default ``size_factor`` times the window half-width.
+    H: depth of each body (length); default = W.
+    n_window: elements across the window at level 0.
+    growth: geometric growth ratio of element sizes away from the window (> 1).
+    margin: fine-mesh margin on each side of the window, fraction of its width.
+    size_factor: default W, H as multiples of the window half-width.
+    """
+
+    level: int = 1
+    order: int = 1
+    W: float | None = None
+    H: float | None = None
+    n_window: int = N_WINDOW_LEVEL0
+    growth: float = 1.2
+    margin: float = 0.15
+    size_factor: float = SIZE_FACTOR
+
+
+@dataclass(frozen=True)
+class MeshFile:
+    """A meshio-readable two-body quad mesh with named boundaries.
+
+    The file must contain 'quad' cells for two disconnected bodies and line cells
+    tagged (gmsh physical names / meshio cell sets) ``contact_upper``,
+    ``contact_lower``, ``top`` and ``bottom``; the interface lies on y = 0 and the
+    two contact node rows must have the same x coordinates (node-to-node).
+    order: polynomial order of the elements built on the quads (1 or 2).
+    """
+
+    path: Path
+    order: int = 1
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """Penalty / augmented-Lagrangian contact and Newton settings.
+
+    k_n, k_t: normal / tangential penalty stiffness (stress per length); default
+        ``penalty_factor * E / h`` with h the fine element size.
+    augmented: if True, Uzawa updates of the normal multiplier until the largest
+        penetration is below ``pen_tol`` (length; default 1e-4 * h).
+    max_uzawa: maximum number of Uzawa updates per increment.
+    newton_tol: relative residual tolerance of the semi-smooth Newton iteration.
+    max_newton: Newton iterations per increment before a step cut-back.
+    max_cutbacks: halvings of an increment before :class:`ConvergenceError`.
+    """
+
+    k_n: float | None = None
+    k_t: float | None = None
+    penalty_factor: float = 100.0
+    augmented: bool = False
+    pen_tol: float | None = None
+    max_uzawa: int = 30
+    newton_tol: float = 1e-10
+    max_newton: int = 40
+    max_cutbacks: int = 8
+
+
+@dataclass(frozen=True)
+class LoadPath:
+    """Increments of the three load stages (paper, Table 1).
+
+    n_normal: increments of stage 1 (P: 0 -> P0, equal steps).
+    stage2: Q values of stage 2 (increasing, ending at Q0); default
+        ``n_tangential`` equal steps. Every value is hit exactly by a step.
+    stage3: Q values of stage 3 (decreasing from Q0, ending at -Q0); default
+        ``2 * n_tangential`` equal steps.
+    """
+
+    n_normal: int = 10
+    stage2: tuple[float, ...] | None = None
+    stage3: tuple[float, ...] | None = None
+    n_tangential: int = 12
+
+    def q_values(self, Q0: float) -> tuple[np.ndarray, np.ndarray]:
+        """Return the (stage-2, stage-3) Q sample values for amplitude Q0."""
+        s2 = (
+            np.linspace(0.0, Q0, self.n_tangential + 1)[1:]
+            if self.stage2 is None
+            else np.asarray(self.stage2, float)
+        )
+        s3 = (
+            np.linspace(Q0, -Q0, 2 * self.n_tangential + 1)[1:]
+            if self.stage3 is None
+            else np.asarray(self.stage3, float)
+        )
+        return s2, s3
+
+
+def validate_material(E: float, nu: float) -> None:
+    """Raise InputError unless E > 0 and -1 < nu < 0.5."""
+    if not np.isfinite(E) or E <= 0:
+        raise InputError(f"E={E!r} is not allowed: need E > 0")
+    if not (-1.0 < nu < 0.5):
+        raise InputError(f"nu={nu!r} is not allowed: need -1 < nu < 0.5")
+
+
+def validate_loads(P0: float, Q0: float, mu: float, M: float | None) -> None:
+    """Raise InputError unless P0 > 0, mu > 0 and 0 <= Q0 <= mu P0."""
+    if not np.isfinite(P0) or P0 <= 0:
+        raise InputError(f"P0={P0!r} is not allowed: need P0 > 0")
+    if not np.isfinite(mu) or mu <= 0:
+        raise InputError(f"mu={mu!r} is not allowed: need mu > 0")
+    if not np.isfinite(Q0) or Q0 < 0 or Q0 > mu * P0 * (1 + 1e-12):
+        raise InputError(f"Q0={Q0!r} is not allowed: need 0 <= Q0 <= mu*P0 = {mu * P0:g}")
+    if M is not None and not np.isfinite(M):
+        raise InputError(f"M={M!r} is not allowed: need a finite moment or None")
+
+
+def validate_path(path: LoadPath, Q0: float) -> tuple[np.ndarray, np.ndarray]:
+    """Check the load path and return the stage-2 and stage-3 Q values."""
+    if path.n_normal < 1:
+        raise InputError(f"n_normal={path.n_normal} is not allowed: need >= 1")
+    s2, s3 = path.q_values(Q0)
+    tol = 1e-12 * max(abs(Q0), 1.0)
+    if s2.size < 1 or abs(s2[-1] - Q0) > tol or np.any(np.diff(np.r_[0.0, s2]) < -tol):
+        raise InputError(
+            f"stage2={s2.tolist()} is not allowed: need Q values increasing "
+            f"from 0 and ending at Q0={Q0:g}"
+        )
+    if s3.size < 1 or abs(s3[-1] + Q0) > tol or np.any(np.diff(np.r_[Q0, s3]) > tol):
+        raise InputError(
+            f"stage3={s3.tolist()} is not allowed: need Q values decreasing "
+            f"from Q0={Q0:g} and ending at -Q0"
+        )
+    return s2, s3
+
+
+def validate_mesh_spec(spec: MeshSpec) -> None:
+    """Raise InputError for an impossible mesh specification."""
+    if spec.order not in (1, 2):
+        raise InputError(f"order={spec.order!r} is not allowed: need 1 or 2")
+    if spec.level < -3 or spec.level > 6:
+        raise InputError(f"level={spec.level!r} is not allowed: need -3 <= level <= 6")
+    if spec.growth <= 1.0 or spec.growth > 2.0:
+        raise InputError(f"growth={spec.growth!r} is not allowed: need 1 < growth <= 2")
+    for name in ("W", "H"):
+        val = getattr(spec, name)
+        if val is not None and (not np.isfinite(val) or val <= 0):
+            raise InputError(f"{name}={val!r} is not allowed: need a positive length")

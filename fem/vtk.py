@@ -1,0 +1,129 @@
+"""VTK output: per increment a .vtu of both bodies and one of the interface line,
+collected in a .pvd time series (time = load-step parameter t). Files are written
+atomically (temporary file in the same directory, then ``os.replace``).
+
+Bodies: points = nodal dof locations (Q2 elements are split into 4 linear quads),
+point data ``displacement`` (3 components), ``stress`` (3x3 tensor, sigma_zz from
+plane strain), ``von_mises``, ``body`` (1 upper, 2 lower). Interface: points on y = 0
+with ``p``, ``q``, ``status``, ``slip``, ``penetration``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from .fields import von_mises
+
+
+def sub_quads(scalar_basis) -> np.ndarray:
+    """Linear quads (rows of 4 scalar dofs) covering the mesh (Q2: 4 per element)."""
+    mesh, dofs = scalar_basis.mesh, scalar_basis.element_dofs
+    if dofs.shape[0] == 4:
+        return dofs.T.copy()
+    loc = scalar_basis.doflocs
+    v = dofs[:4]
+    edges = []
+    for k in range(4):
+        mid = 0.5 * (loc[:, v[k]] + loc[:, v[(k + 1) % 4]])
+        dist = np.linalg.norm(loc[:, dofs[4:8]] - mid[:, None, :], axis=0)
+        edges.append(dofs[4:8][np.argmin(dist, axis=0), np.arange(mesh.t.shape[1])])
+    c = dofs[8]
+    e01, e12, e23, e30 = edges
+    quads = [(v[0], e01, c, e30), (e01, v[1], e12, c), (c, e12, v[2], e23), (e30, c, e23, v[3])]
+    return np.concatenate([np.array(q).T for q in quads])
+
+
+def stress_tensor(s: np.ndarray) -> np.ndarray:
+    """(n, 9) VTK tensors from (sxx, syy, sxy, szz) rows."""
+    sxx, syy, sxy, szz = s
+    z = np.zeros_like(sxx)
+    return np.stack([sxx, sxy, z, sxy, syy, z, z, z, szz], axis=1)
+
+
+def bodies_mesh(history, step):
+    """meshio.Mesh of both bodies at one step."""
+    import meshio
+
+    disc = history.fields.disc
+    pts, cells, data, off = (
+        [],
+        [],
+        {"displacement": [], "stress": [], "von_mises": [], "body": []},
+        0,
+    )
+    for b, (u, s) in enumerate(zip(history.displacement(step), history.stress(step), strict=True)):
+        sb = disc.scalar_bases[b]
+        n = sb.N
+        pts.append(np.c_[sb.doflocs.T, np.zeros(n)])
+        cells.append(sub_quads(sb) + off)
+        data["displacement"].append(np.c_[u[0::2], u[1::2], np.zeros(n)])
+        data["stress"].append(stress_tensor(s))
+        data["von_mises"].append(von_mises(s))
+        data["body"].append(np.full(n, b + 1, dtype=np.int32))
+        off += n
+    return meshio.Mesh(
+        np.vstack(pts),
+        [("quad", np.vstack(cells))],
+        point_data={k: np.concatenate(v) for k, v in data.items()},
+    )
+
+
+def interface_mesh(step):
+    """meshio.Mesh of the interface line at one step."""
+    import meshio
+
+    f = step.interface
+    n = f.x.size
+    pts = np.c_[f.x, np.zeros(n), np.zeros(n)]
+    lines = np.c_[np.arange(n - 1), np.arange(1, n)]
+    data = {
+        "p": f.p,
+        "q": f.q,
+        "status": f.status.astype(np.int32),
+        "slip": f.slip,
+        "penetration": f.penetration,
+    }
+    return meshio.Mesh(pts, [("line", lines)], point_data=data)
+
+
+def atomic_write_mesh(mesh, path: Path) -> None:
+    """Write a meshio mesh as .vtu through a temporary file and os.replace."""
+    import meshio
+
+    tmp = path.with_name(f".{path.name}.tmp")
+    meshio.write(tmp, mesh, file_format="vtu")
+    os.replace(tmp, path)
+
+
+def atomic_write_text(text: str, path: Path) -> None:
+    """Write text through a temporary file and os.replace."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def write_vtk(history, directory) -> Path:
+    """Write bodies and interface .vtu files of every step and the .pvd time series."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    entries = []
+    for step in history.steps:
+        names = (f"bodies_{step.index:04d}.vtu", f"interface_{step.index:04d}.vtu")
+        atomic_write_mesh(bodies_mesh(history, step), directory / names[0])
+        atomic_write_mesh(interface_mesh(step), directory / names[1])
+        entries += [
+            f'    <DataSet timestep="{step.t:.12g}" part="{k}" file={quoteattr(n)}/>'
+            for k, n in enumerate(names)
+        ]
+    pvd = (
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
+        + "\n".join(entries)
+        + "\n  </Collection>\n</VTKFile>\n"
+    )
+    path = directory / "history.pvd"
+    atomic_write_text(pvd, path)
+    return path

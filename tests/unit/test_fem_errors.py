@@ -1,0 +1,65 @@
+"""Bad inputs give one clear fem.InputError naming the value and the allowed range."""
+
+import numpy as np
+import pytest
+
+import fem
+
+R = 100.0
+
+
+def hertz(x):
+    """Cylinder gap h0 = x^2 / (2R)."""
+    return x**2 / (2 * R)
+
+
+def run(**kw):
+    args = dict(h0=hertz, P0=0.01, Q0=0.002, mu=0.5, E=1.0, nu=0.3)
+    args.update(kw)
+    h0 = args.pop("h0")
+    opts = {k: args.pop(k) for k in ("window", "mesh", "increments", "contact") if k in args}
+    opts.setdefault("window", (-2.0, 2.0))
+    opts.setdefault("increments", fem.LoadPath(n_normal=2, n_tangential=1))
+    return fem.solve_history(h0, args["P0"], args["Q0"], args["mu"], args["E"], args["nu"], **opts)
+
+
+@pytest.mark.parametrize(
+    "kw,match",
+    [
+        (dict(nu=0.5), "nu=0.5"),
+        (dict(nu=-1.0), "nu=-1.0"),
+        (dict(E=0.0), "E=0.0"),
+        (dict(Q0=0.006), r"Q0=0.006.*mu\*P0"),
+        (dict(P0=-1.0), "P0=-1.0"),
+        (dict(mu=0.0), "mu=0.0"),
+        (dict(window=None), "window=None"),
+        (dict(mesh=fem.MeshSpec(order=3)), "order=3"),
+        (dict(h0=lambda x: x - 10.0), "h0"),
+        (dict(increments=fem.LoadPath(stage2=(0.001,))), "stage2"),
+        (dict(mesh="/nonexistent/mesh.msh"), "does not exist"),
+    ],
+)
+def test_bad_input_is_one_clear_error(kw, match):
+    with pytest.raises(fem.InputError, match=match):
+        run(**kw)
+
+
+def test_mesh_too_coarse_for_contact_zone():
+    with pytest.raises(fem.InputError, match="mesh too coarse"):
+        run(window=(-40.0, 40.0), mesh=fem.MeshSpec(level=-2, W=200.0))
+
+
+def test_window_too_small_is_detected():
+    with pytest.raises(fem.InputError, match="window too small"):
+        run(window=(-0.4, 0.4), mesh=fem.MeshSpec(level=0, W=30.0))
+
+
+def test_nonconvergence_raises_with_diagnostics():
+    with pytest.raises(fem.ConvergenceError, match="stage 1"):
+        run(contact=fem.ContactSettings(max_newton=1, max_cutbacks=0))
+
+
+def test_at_unknown_q_lists_available():
+    h = run(mesh=fem.MeshSpec(level=-1))
+    with pytest.raises(fem.InputError, match="available"):
+        h.at(2, Q=np.pi)

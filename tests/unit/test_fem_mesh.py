@@ -1,0 +1,123 @@
+"""Unit tests of the fem mesh generator, mesh files, zone extraction and solvers."""
+
+import numpy as np
+import pytest
+
+import fem
+from fem.bulk import discretise, free_dofs, reduced_stiffness
+from fem.condense import compliance, condense, pair_dofs
+from fem.linsolve import available_backends, factorize
+from fem.mesh import build_mesh, graded_sizes, read_mesh, write_msh
+from fem.results import edge, runs
+
+
+def test_graded_sizes_sum_and_growth():
+    s = graded_sizes(0.1, 10.0, 1.2)
+    assert np.isclose(s.sum(), 10.0)
+    assert np.allclose(s[1:] / s[:-1], 1.2)
+
+
+def test_mesh_has_kinks_and_matching_interface():
+    m = build_mesh(fem.MeshSpec(level=0), (-1.5, 1.5), kinks=(-1.0, 0.0, 1.0, 3.0))
+    x1 = np.sort(m.bodies[0].p[0, m.nodes["contact_upper"]])
+    x2 = np.sort(m.bodies[1].p[0, m.nodes["contact_lower"]])
+    assert np.array_equal(x1, x2)
+    for k in (-1.0, 0.0, 1.0, 3.0):
+        assert np.min(np.abs(x1 - k)) < 1e-12
+    width = 3.0 / 48
+    assert np.isclose(m.h_min, width, rtol=0.2)
+
+
+def test_q2_tributary_lengths_sum_to_width():
+    m = build_mesh(fem.MeshSpec(level=0, order=2), (-1.0, 1.0))
+    d = discretise(m, 2, 1.0, 0.3)
+    x = d.interface.x
+    assert np.isclose(d.interface.w.sum(), x[-1] - x[0])
+    assert np.all(d.interface.w > 0)
+
+
+def test_msh_round_trip_and_missing_boundary(tmp_path):
+    m = build_mesh(fem.MeshSpec(level=-2), (-1.0, 1.0))
+    path = write_msh(m, tmp_path / "two.msh")
+    back = read_mesh(fem.MeshFile(path))
+    assert back.bodies[0].p.shape == m.bodies[0].p.shape
+    assert np.isclose(back.h_min, m.h_min)
+    text = path.read_text().replace('"top"', '"lid"')
+    bad = tmp_path / "bad.msh"
+    bad.write_text(text)
+    with pytest.raises(fem.InputError, match="top"):
+        read_mesh(fem.MeshFile(bad))
+
+
+def test_non_matching_interface_rejected(tmp_path):
+    from skfem import MeshQuad
+
+    from fem.mesh import from_bodies
+
+    upper = MeshQuad.init_tensor(np.linspace(-1, 1, 5), np.linspace(0, 1, 3))
+    lower = MeshQuad.init_tensor(np.linspace(-1, 1, 7), np.linspace(-1, 0, 3))
+    with pytest.raises(fem.InputError, match="non-matching"):
+        from_bodies(upper, lower, "test")
+
+
+def test_runs_and_sqrt_edge_extrapolation():
+    assert runs(np.array([0, 1, 1, 0, 1], bool)) == [(1, 2), (4, 4)]
+    x = np.linspace(0.0, 1.0, 11)
+    a = 0.73
+    f = np.sqrt(np.clip(a - x, 0, None))
+    inner = int(np.flatnonzero(f > 0)[-1])
+    assert abs(edge(x, f, inner, +1) - a) < 1e-12
+
+
+def test_backends_agree_and_schur_equals_blocked_solves():
+    m = build_mesh(fem.MeshSpec(level=-2), (-1.0, 1.0))
+    d = discretise(m, 1, 1.0, 0.3)
+    free, index = free_dofs(d)
+    K = reduced_stiffness(d, free)
+    cand = np.flatnonzero(np.abs(d.interface.x) < 1.2)
+    f1, f2 = pair_dofs(d, index, cand)
+    ref = compliance(factorize(K, "scipy-splu"), f1, f2)
+    for backend in available_backends():
+        factor, C = condense(K, f1, f2, backend)
+        assert factor.backend == backend
+        assert np.allclose(C, ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
+        b = np.random.default_rng(0).normal(size=K.shape[0])
+        assert np.allclose(K @ factor.solve(b), b, atol=1e-8 * np.abs(b).max())
+
+
+def test_pair_fast_path_equals_full_solve():
+    from fem.condense import pair_loads
+
+    m = build_mesh(fem.MeshSpec(level=-2), (-1.0, 1.0))
+    d = discretise(m, 1, 1.0, 0.3)
+    free, index = free_dofs(d)
+    K = reduced_stiffness(d, free)
+    f1, f2 = pair_dofs(d, index, np.flatnonzero(np.abs(d.interface.x) < 1.2))
+    factor, _ = condense(K, f1, f2, "auto")
+    if factor.solve_pairs is None:
+        pytest.skip("fast path only with CHOLMOD")
+    lam = np.random.default_rng(1).normal(size=(f1.size, 3))
+    full = factor.solve(pair_loads(K.shape[0], f1, f2, lam))
+    assert np.allclose(factor.solve_pairs(lam), full, rtol=1e-10, atol=1e-12 * np.abs(full).max())
+
+
+def test_history_identical_with_every_backend():
+    a = np.sqrt(2 * 3.64 * 0.01 * 100 / np.pi)
+    runs_ = [
+        fem.solve_history(
+            lambda x: x**2 / 200.0,
+            0.01,
+            0.002,
+            0.5,
+            1.0,
+            0.3,
+            window=(-1.3 * a, 1.3 * a),
+            mesh=fem.MeshSpec(level=-2),
+            increments=fem.LoadPath(n_normal=2, n_tangential=1),
+            backend=b,
+        )
+        for b in available_backends()
+    ]
+    for h, b in zip(runs_, available_backends(), strict=True):
+        assert h.backend == b
+        assert np.allclose(h.steps[-1].interface.p, runs_[0].steps[-1].interface.p, rtol=1e-8)

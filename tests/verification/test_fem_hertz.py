@@ -1,0 +1,102 @@
+"""Hertz cylinder-on-flat (stage 1) against the plane-strain closed form.
+
+Closed form (Johnson, Contact Mechanics, 1985, Sec. 5.5; DESIGN.md with p >= 0):
+half-width ``a = sqrt(2 A P R / pi)``, peak pressure ``p0 = a / (A R)``,
+``p(x) = p0 sqrt(1 - x^2/a^2)``, ``A = 4 (1 - nu^2) / E``.
+"""
+
+import numpy as np
+import pytest
+
+import fem
+
+E, NU, R, P, MU = 1.0, 0.3, 100.0, 0.01, 0.5
+A = 4 * (1 - NU**2) / E
+A_HERTZ = np.sqrt(2 * A * P * R / np.pi)
+P0_HERTZ = A_HERTZ / (A * R)
+WINDOW = (-1.3 * A_HERTZ, 1.3 * A_HERTZ)
+#: Issue 4: FE half-width on the default mesh within 1 % of the closed form.
+WIDTH_TOL = 0.01
+
+
+def hertz_gap(x):
+    """Cylinder gap h0 = x^2 / (2R)."""
+    return x**2 / (2 * R)
+
+
+def hertz_pressure(x):
+    """p(x) = p0 sqrt(1 - x^2/a^2) inside, 0 outside."""
+    return P0_HERTZ * np.sqrt(np.clip(1 - (x / A_HERTZ) ** 2, 0.0, None))
+
+
+def solve(level=1, order=1, **mesh_kw):
+    """Stage 1 only on a mesh of the given level / order."""
+    return fem.solve_history(
+        hertz_gap,
+        P,
+        0.0,
+        MU,
+        E,
+        NU,
+        window=WINDOW,
+        mesh=fem.MeshSpec(level=level, order=order, **mesh_kw),
+        increments=fem.LoadPath(n_normal=4),
+    )
+
+
+def pressure_l2(step) -> float:
+    """Relative L2 (tributary-weighted) pressure error."""
+    f = step.interface
+    pex = hertz_pressure(f.x)
+    return float(np.sqrt(np.sum(f.w * (f.p - pex) ** 2) / np.sum(f.w * pex**2)))
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_hertz_width_default_mesh(order):
+    h = solve(order=order) if order == 2 else solve()
+    s = h.steps[-1]
+    ((a, b),) = s.contact_zones
+    err = max(abs(b - A_HERTZ), abs(-a - A_HERTZ)) / A_HERTZ
+    print(f"Q{order}: a_fem/a - 1 = {b / A_HERTZ - 1:+.2e}, pressure L2 error {pressure_l2(s):.2e}")
+    assert err < WIDTH_TOL
+    assert pressure_l2(s) < 0.02
+    assert abs(np.sum(s.interface.p * s.interface.w) - P) < 1e-9 * P
+    assert np.all(s.interface.p >= 0)
+    assert np.all(s.interface.gap[s.interface.status == 0] >= 0)
+
+
+def test_hertz_converges_under_refinement():
+    """Pressure L2 error decreases, edge error stays within half an element."""
+    errs, hs = [], []
+    for level in (0, 1, 2):
+        h = solve(level=level)
+        s = h.steps[-1]
+        errs.append(pressure_l2(s))
+        hs.append(h.h_min)
+        edge_err = abs(s.contact_zones[0][1] - A_HERTZ)
+        assert edge_err < 0.6 * h.h_min
+    print(f"pressure L2 errors {errs}")
+    assert errs[2] < errs[1] < errs[0]
+
+
+@pytest.mark.slow
+def test_hertz_observed_order():
+    """Observed order of the pressure L2 error over levels 1-3 (theory ~1: sqrt edge)."""
+    errs = [pressure_l2(solve(level=lv).steps[-1]) for lv in (1, 2, 3)]
+    order = np.log2(errs[0] / errs[2]) / 2
+    print(f"pressure L2 errors {errs}, observed order {order:.2f}")
+    assert order > 0.5
+
+
+@pytest.mark.slow
+def test_hertz_finite_size():
+    """Finite-body error: width from the second pressure moment vs W = H."""
+
+    def width(sf):
+        s = solve(level=1, size_factor=sf).steps[-1]
+        f = s.interface
+        return 2 * np.sqrt(np.sum(f.w * f.p * f.x**2) / P)
+
+    w25, w100 = width(25.0), width(100.0)
+    print(f"moment widths / a: W=25: {w25 / A_HERTZ:.5f}, W=100: {w100 / A_HERTZ:.5f}")
+    assert abs(w25 - w100) / A_HERTZ < 0.003
