@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.special import binom, roots_jacobi
+from scipy.special import roots_jacobi
 
 from analytic.profiles import Piece, Profile
 
@@ -137,10 +137,17 @@ def series_coeffs(edges: np.ndarray, eps: np.ndarray, power: float, order: int) 
     c = np.zeros(order + 1)
     c[0] = 1.0
     for ei, pi_ in zip(edges, eps, strict=True):
-        alpha = power * pi_
-        f = np.array([binom(alpha, j) * (-ei) ** j for j in range(order + 1)])
+        f = _binomial_series(power * pi_, order) * (-ei) ** np.arange(order + 1)
         c = np.convolve(c, f)[: order + 1]
     return c
+
+
+def _binomial_series(alpha: float, order: int) -> np.ndarray:
+    """``binom(alpha, j)`` for j <= order by the product formula (valid for any real alpha)."""
+    out = np.ones(order + 1)
+    for j in range(1, order + 1):
+        out[j] = out[j - 1] * (alpha - j + 1) / j
+    return out
 
 
 @dataclass(frozen=True)
