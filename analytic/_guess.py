@@ -11,11 +11,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import brentq
 
 from analytic._sie import Layout
 from analytic.profiles import Profile
 
 CHEB = 24
+GUESS_RTOL = 1e-4  # the guess only seeds Newton; log-delta to this accuracy is ample
 RAYS = np.geomspace(1e-12, 20.0, 240)  # distances from a minimum, in units of profile.scale
 
 
@@ -80,17 +82,21 @@ def overlap_guess(profile: Profile, theta: float, P: float, A: float) -> Layout 
     if not rays:
         return None
     f0 = min(v for v, _, _ in rays)
-    hi = 1e-14 * max(profile.scale, 1e-300)
-    for _ in range(140):
-        if _load(profile, theta, A, rays, f0 + hi) >= P:
+
+    def excess(log_d: float) -> float:
+        return _load(profile, theta, A, rays, f0 + np.exp(log_d)) - P
+
+    lo = np.log(1e-14 * max(profile.scale, 1e-300))
+    if excess(lo) >= 0:
+        return None
+    hi = lo
+    for _ in range(20):
+        hi += np.log(100.0)
+        if excess(hi) >= 0:
             break
-        hi *= 2.0
     else:
         return None
-    lo = 0.0
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if _load(profile, theta, A, rays, f0 + mid) < P else (lo, mid)
+    hi = np.exp(brentq(excess, hi - np.log(100.0), hi, xtol=GUESS_RTOL))
     zones = _zones(rays, f0 + hi)
     edges = np.asarray([v for z in zones for v in z], float)
     if edges.size == 0 or np.any(np.diff(edges) <= 0):

@@ -353,24 +353,32 @@ class System:
         return total
 
     def _near_edge(self, i: int, pc: Piece, length: np.ndarray, direction: np.ndarray):
-        """``int`` of w' over ``[x0, x0 + dir*length]`` with the edge piece's continuation."""
+        """``int`` of w' over ``[x0, x0 + dir*length]`` with the edge piece's continuation.
+
+        All targets share one evaluation of B: their graded rules are concatenated and the
+        weighted values summed per target.
+        """
         x0 = float(self.layout.edges[i])
         eps_i = float(self.layout.eps[i])
         clearance = float(np.min(np.abs(np.delete(self.layout.edges, i) - x0)))
         out = np.zeros(length.shape)
+        todo = np.flatnonzero(length > 0)
+        if todo.size == 0:
+            return out
+        rules = [graded_rule(float(length[j]), clearance, eps_i) for j in todo]
+        counts = np.array([r[0].size for r in rules])
+        sgn = np.repeat(direction[todo], counts)
+        x = x0 + sgn * np.concatenate([r[0] for r in rules])
+        w = np.concatenate([r[1] for r in rules])
         skip = np.zeros(self.layout.edges.size, bool)
         skip[i] = True
-        for j in np.flatnonzero(length > 0):
-            t, w = graded_rule(float(length[j]), clearance, eps_i)
-            x = x0 + direction[j] * t
-            rest = (sign_from_d(sign_exponent(x, self.layout.edges, self.layout.pinned))
-                    * w_abs(x, self.layout.edges, self.layout.eps, skip))
-            H = pc.dh(x) - self.theta
-            Bv = self.B(x - self.xc, H, pc.d2h(x))
-            x_end = x0 + direction[j] * length[j]
-            dh_int = (float(pc.h(np.array([x_end]))[0]) - float(pc.h(np.array([x0]))[0])
-                      - self.theta * (x_end - x0))
-            out[j] = direction[j] * np.sum(w * rest * Bv) / np.pi - dh_int
+        rest = (sign_from_d(sign_exponent(x, self.layout.edges, self.layout.pinned))
+                * w_abs(x, self.layout.edges, self.layout.eps, skip))
+        Bv = self.B(x - self.xc, pc.dh(x) - self.theta, pc.d2h(x))
+        sums = np.add.reduceat(w * rest * Bv, np.concatenate([[0], np.cumsum(counts)[:-1]]))
+        x_end = x0 + direction[todo] * length[todo]
+        dh_int = pc.h(x_end) - pc.h(np.full_like(x_end, x0)) - self.theta * (x_end - x0)
+        out[todo] = direction[todo] * sums / np.pi - dh_int
         return out
 
     def _plain_segment(self, x_from: np.ndarray, x_to: np.ndarray, n: int = 48) -> np.ndarray:
