@@ -65,6 +65,7 @@ def nodes_for(length: float, clearance: float) -> int:
 
 
 GRADING = 4.0
+KINK_ZONE = 0.25  # points this close to a kink (fraction of its pieces) get graded rules
 
 
 @lru_cache(maxsize=4096)
@@ -258,11 +259,74 @@ class System:
         return sign_from_d(d) * w_abs(np.atleast_1d(x), lay.edges, lay.eps)
 
     def pressure_inside(self, x: np.ndarray) -> np.ndarray:
-        """p at absolute x known to lie inside the zones."""
+        """p at absolute x known to lie inside the zones.
+
+        Near an interior kink of h0 (wedge apex, end of a flat face) the divided difference
+        ``(h'(s) - h'(x))/(s - x)`` jumps across the kink; those points get a quadrature graded
+        towards the kink at their own distance from it (p is log-singular at an apex).
+        """
         x = np.atleast_1d(np.asarray(x, float))
         H = self.profile.dh0(x) - self.theta
         dH = self.profile.d2h0(x)
-        return self.W_real(x) * self.B(x - self.xc, H, dH) / (np.pi * self.A)
+        Bv = self.B(x - self.xc, H, dH)
+        for j, kink, cuts in self._near_kinks(x):
+            Bv[j] = self._B_graded(x[j], H[j], kink, cuts)
+        return self.W_real(x) * Bv / (np.pi * self.A)
+
+    def _near_kinks(self, x: np.ndarray):
+        """(index, kink, zone cuts) for points closer to an interior kink than KINK_ZONE."""
+        out = []
+        for a, b in self.layout.edges.reshape(-1, 2):
+            kinks = [q for q in self.profile.kinks if a < q < b]
+            if not kinks:
+                continue
+            cuts = [a, *kinks, b]
+            for m, q in enumerate(kinks, start=1):
+                reach = KINK_ZONE * min(q - cuts[m - 1], cuts[m + 1] - q)
+                for j in np.flatnonzero((np.abs(x - q) < reach) & (x != q)):
+                    out.append((int(j), q, (cuts[m - 1], q, cuts[m + 1])))
+        return out
+
+    def _B_graded(self, x: float, H: float, kink: float, cuts: tuple) -> float:
+        lo, q, hi = cuts
+        sq = self.sq
+        s_abs = sq.s + self.xc
+        keep = (s_abs <= lo) | (s_abs >= hi)
+        s_new, O_new = [sq.s[keep]], [sq.Omega[keep]]
+        d = abs(x - q)
+        for end, side in ((lo, -1.0), (hi, 1.0)):
+            s_piece, O_piece = self._graded_piece(q, end, side, d)
+            s_new.append(s_piece - self.xc)
+            O_new.append(O_piece)
+        s_all, O_all = np.concatenate(s_new), np.concatenate(O_new)
+        dh = self.profile.dh0(s_all + self.xc) - self.theta
+        xh = x - self.xc
+        val = np.sum((dh - H) / (s_all - xh) * O_all)
+        return float(val + np.pi * H * self.poly_part(np.array([xh]))[0]
+                     + self.T(np.array([xh]))[0])
+
+    def _graded_piece(self, q: float, end: float, side: float, d: float):
+        """Nodes/weights (times omega) on the piece between kink q and ``end``: graded towards q
+        on its inner half, Gauss-Jacobi (edge weight if ``end`` is an edge) on the outer half."""
+        lay = self.layout
+        edges, eps = lay.edges, lay.eps
+        L = abs(end - q)
+        t, w = graded_rule(0.5 * L, d, 0.0)
+        s_in = q + side * t
+        i_end = np.flatnonzero(edges == end)
+        a_end = -eps[i_end[0]] if i_end.size else 0.0
+        mid = q + side * 0.5 * L
+        lo_, hi_ = (mid, end) if side > 0 else (end, mid)
+        al, ah = (0.0, a_end) if side > 0 else (a_end, 0.0)
+        s_out, w_out = mapped_rule(lo_, hi_, al, ah, BASE_NODES)
+        skip = np.zeros(edges.size, bool)
+        if i_end.size:
+            skip[i_end[0]] = True
+        d_in = sign_exponent(s_in, edges, lay.pinned)
+        O_in = w * sign_from_d(d_in) * w_abs(s_in, edges, -eps)
+        d_out = sign_exponent(s_out, edges, lay.pinned)
+        O_out = w_out * sign_from_d(d_out) * w_abs(s_out, edges, -eps, skip)
+        return np.concatenate([s_in, s_out]), np.concatenate([O_in, O_out])
 
     # moments --------------------------------------------------------------------------------
     def moments(self, jmax: int) -> tuple[np.ndarray, np.ndarray]:
