@@ -17,7 +17,7 @@ export MPLBACKEND := Agg
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e ".[test]"
+	$(PY) -m pip install -q -e ".[test,cluster]"
 	@if dpkg -s libsuitesparse-dev >/dev/null 2>&1; then \
 	  $(PY) -m pip install -q "scikit-sparse==0.4.16" || \
 	  echo "multicontact: scikit-sparse (CHOLMOD) did not build; the FE model falls back to SciPy"; \
