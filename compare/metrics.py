@@ -1,0 +1,158 @@
+"""Pure comparison metrics between analytic functions and FE nodal interface data.
+
+Conventions: zones are lists of ``(a, b)`` ordered by x; FE data are nodal arrays ``x, w, p, q``
+(``w`` the tributary length, so ``sum f w`` is the integral of f).  Errors relative to a zone
+are divided by the *analytic* zone width.  Norms are discrete L2 norms with the tributary
+weights: ``||f|| = sqrt(sum w f^2)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+#: Nodes closer than this fraction of the zone width to a singular point (sharp-corner edge:
+#: p ~ 1/sqrt; profile kink inside a zone: p ~ log) are left out of the traction errors: a
+#: nodal value cannot represent an unbounded traction, and the L2 norm of 1/sqrt diverges.
+SINGULAR_EXCLUSION = 0.03
+#: Floor of the shear-error denominator, as a fraction of mu ||p||: the analytic shear passes
+#: through small norms (e.g. early in stage 2), where a relative error would be meaningless.
+SHEAR_FLOOR = 0.1
+
+Zone = tuple[float, float]
+
+
+def nearest(values: Sequence[float], target: float) -> float:
+    """The element of ``values`` closest to ``target`` (nan if empty)."""
+    if len(values) == 0:
+        return float("nan")
+    v = np.asarray(values, float)
+    return float(v[np.argmin(np.abs(v - target))])
+
+
+def edge_errors(an: Sequence[Zone], fe: Sequence[Zone]) -> list[tuple[float, float]]:
+    """Per analytic zone: absolute errors of the left and right edges.
+
+    Each analytic left (right) edge is paired with the nearest FE left (right) edge, so a
+    missing or extra FE zone shows up as a large error instead of a shifted pairing.
+    """
+    lefts, rights = [z[0] for z in fe], [z[1] for z in fe]
+    return [(abs(nearest(lefts, a) - a), abs(nearest(rights, b) - b)) for a, b in an]
+
+
+def overlap(z1: Zone, z2: Zone) -> float:
+    """Length of the intersection of two intervals (0 if disjoint)."""
+    return max(0.0, min(z1[1], z2[1]) - max(z1[0], z2[0]))
+
+
+def match_zones(an: Sequence[Zone], fe: Sequence[Zone]) -> list[int | None]:
+    """For each analytic zone, the index of the FE zone overlapping it most (None: no overlap)."""
+    out: list[int | None] = []
+    for z in an:
+        ov = [overlap(z, f) for f in fe]
+        out.append(int(np.argmax(ov)) if ov and max(ov) > 0 else None)
+    return out
+
+
+def stick_edge_error(an: Zone | None, fe: Zone | None, width: float) -> float:
+    """Stick-zone edge error relative to the contact-zone width.
+
+    Both in full slip (None): 0.  One in full slip: the other's half width (the distance of
+    its edges from a vanishing stick zone at its centre).  Otherwise the larger edge error.
+    """
+    if an is None and fe is None:
+        return 0.0
+    if an is None or fe is None:
+        c, d = an if fe is None else fe
+        return 0.5 * (d - c) / width
+    return max(abs(fe[0] - an[0]), abs(fe[1] - an[1])) / width
+
+
+def regular_mask(x: np.ndarray, zones: Sequence[Zone], singular_points: Sequence[float]
+                 ) -> np.ndarray:
+    """Nodes not within SINGULAR_EXCLUSION * (zone width) of a singular point."""
+    keep = np.ones(x.shape, bool)
+    widths = [b - a for a, b in zones]
+    for s in singular_points:
+        w = min((wd for (a, b), wd in zip(zones, widths, strict=True) if a - 1e-12 <= s
+                 <= b + 1e-12), default=max(widths) if widths else 0.0)
+        keep &= np.abs(x - s) > SINGULAR_EXCLUSION * w
+    return keep
+
+
+def singular_points(zones: Sequence[Zone], singular: Sequence[tuple[bool, bool]],
+                    kinks: Sequence[float]) -> list[float]:
+    """Singular edges of the zones plus kinks strictly inside a zone."""
+    pts = [e for (a, b), (sl, sr) in zip(zones, singular, strict=True)
+           for e, s in ((a, sl), (b, sr)) if s]
+    pts += [k for k in kinks for a, b in zones if a < k < b]
+    return pts
+
+
+def l2(f: np.ndarray, w: np.ndarray) -> float:
+    """Discrete L2 norm ``sqrt(sum w f^2)``."""
+    return float(np.sqrt(np.sum(w * f * f)))
+
+
+def relative_l2(fe: np.ndarray, an: np.ndarray, w: np.ndarray, floor: float = 0.0) -> float:
+    """``||fe - an|| / max(||an||, floor)`` (nan when both norms vanish)."""
+    den = max(l2(an, w), floor)
+    return l2(fe - an, w) / den if den > 0 else float("nan")
+
+
+def relative_max(fe: np.ndarray, an: np.ndarray) -> float:
+    """``max |fe - an| / max |an|``."""
+    den = float(np.max(np.abs(an))) if an.size else 0.0
+    return float(np.max(np.abs(fe - an))) / den if den > 0 else float("nan")
+
+
+def zone_load(x: np.ndarray, w: np.ndarray, p: np.ndarray, zone: Zone) -> float:
+    """FE load carried by the nodes in ``zone`` (closed interval)."""
+    m = (x >= zone[0] - 1e-12) & (x <= zone[1] + 1e-12)
+    return float(np.sum(p[m] * w[m]))
+
+
+def zone_nodes(x: np.ndarray, zone: Zone, pad: float = 0.1) -> np.ndarray:
+    """Nodes within the zone widened by ``pad`` of its width on each side."""
+    a, b = zone
+    d = pad * (b - a)
+    return (x >= a - d) & (x <= b + d)
+
+
+def traction_errors(x: np.ndarray, w: np.ndarray, fe: np.ndarray,
+                    an: Callable[[np.ndarray], np.ndarray], keep: np.ndarray,
+                    floor: float = 0.0) -> tuple[float, float]:
+    """(relative L2, relative max) of nodal FE values against the analytic function."""
+    xa, wa, fa = x[keep], w[keep], fe[keep]
+    ref = np.asarray(an(xa), float)
+    return relative_l2(fa, ref, wa, floor), relative_max(fa, ref)
+
+
+def observed_order(h: Sequence[float], err: Sequence[float]) -> float:
+    """Least-squares slope of ``log err`` against ``log h`` (nan with < 2 usable points)."""
+    h, e = np.asarray(h, float), np.asarray(err, float)
+    m = (h > 0) & (e > 0) & np.isfinite(e)
+    if m.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(h[m]), np.log(e[m]), 1)[0])
+
+
+def richardson(values: Sequence[float], ratio: float = 2.0, order: float | None = None
+               ) -> tuple[float, float]:
+    """Richardson extrapolation of a sequence on meshes refined by ``ratio``.
+
+    With three or more values and ``order`` None, the order is estimated from the last three,
+    ``p = log((f1 - f2) / (f2 - f3)) / log(ratio)``.  Returns ``(extrapolated, order)``.
+    """
+    f = np.asarray(values, float)
+    if f.size < 2:
+        return float("nan"), float("nan")
+    if order is None:
+        if f.size < 3:
+            return float("nan"), float("nan")
+        d1, d2 = f[-3] - f[-2], f[-2] - f[-1]
+        if d1 == 0 or d2 == 0 or d1 / d2 <= 0:
+            return float(f[-1]), float("nan")
+        order = float(np.log(d1 / d2) / np.log(ratio))
+    return float(f[-1] + (f[-1] - f[-2]) / (ratio**order - 1.0)), float(order)

@@ -1,0 +1,211 @@
+"""Verification report: ``DIR/index.html`` (self-contained), ``DIR/report.md``, ``DIR/summary.json``.
+
+Per case: the metrics table with pass/fail, matplotlib figures (pressure, shear per stage, stick
+zones over the cycle), a pyvista off-screen picture of the deformed bodies coloured by von Mises
+stress, and links to the VTK series (``DIR/vtk/<case>/history.pvd``).  Optional convergence
+studies (log-log plots with observed orders) and the paper's Fig. 5 study page
+(``DIR/study_fig5.html``).  Everything is written into a temporary directory next to ``DIR``
+and renamed into place at the end, so a failed run leaves no partial report.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from compare.cases import Case, load_case
+from compare.convergence import ConvergenceStudy, convergence
+from compare.report import figures
+from compare.report.fig5 import fig5_rows
+from compare.report.html import case_html, case_md, page, study_html
+from compare.report.render3d import render_bodies
+from compare.run import CaseResult, run_case
+
+#: The default suite of ``make run`` (each at its library FE level; about 1-2 minutes on 2 cores).
+DEFAULT_SUITE = ("hertz", "cattaneo", "double_wedge_a", "two_cylinders_unequal",
+                 "punch_and_cylinder", "applied_moment")
+#: Default convergence study of the report: Hertz under uniform h-refinement.
+DEFAULT_CONVERGENCE = {"hertz": (-1, 0, 1)}
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class CaseSection:
+    """What the report shows for one case."""
+
+    result: CaseResult
+    figures: dict = field(default_factory=dict)   # title -> png bytes
+    render: str = ""                              # relative path of the pyvista picture
+    render_png: bytes = b""
+    render_note: str = ""
+    vtk_link: str = ""
+    vtk_note: str = ""
+
+
+def _write_figs(sec: CaseSection, root: Path) -> None:
+    res = sec.result
+    made = {"pressure (stage 1 end)": figures.pressure_figure(res),
+            "shear (stages 2 and 3)": figures.shear_figure(res),
+            "stick zones over the cycle": figures.stick_cycle_figure(res)}
+    sec.figures = {k: v for k, v in made.items() if v is not None}
+    fig_dir = root / "figures"
+    fig_dir.mkdir(exist_ok=True)
+    for i, data in enumerate(sec.figures.values()):
+        (fig_dir / f"{res.case.name}_{i}.png").write_bytes(data)
+
+
+def report_steps(res: CaseResult) -> tuple:
+    """FE steps of the report's VTK series: the end of every stage and the sampled Q values
+    (writing every increment costs ~0.5 s each; ``fem.write_vtk`` on the full history does)."""
+    keep = {s.index for k in (1, 2, 3) for s in res.fem.stage(k)[-1:]}
+    keep |= {res.fem.at(st.stage, Q=st.Q).index for st in res.analytic.samples}
+    return tuple(s for s in res.fem.steps if s.index in keep)
+
+
+def _vtk_and_render(sec: CaseSection, root: Path) -> None:
+    import fem
+
+    res = sec.result
+    out = root / "vtk" / res.case.name
+    try:
+        pvd = fem.write_vtk(replace(res.fem, steps=report_steps(res)), out)
+    except Exception as exc:  # noqa: BLE001 - any writer failure is reported, not fatal
+        sec.vtk_note = f"VTK series not written: {type(exc).__name__}: {exc}"
+        sec.render_note = "no pyvista picture: the VTK series is missing"
+        return
+    sec.vtk_link = Path(pvd).relative_to(root).as_posix()
+    step = res.fem.stage(2)[-1] if res.fem.stage(2) else res.fem.stage(1)[-1]
+    vtu = out / f"bodies_{step.index:04d}.vtu"
+    png = root / "figures" / f"{res.case.name}_bodies.png"
+    zones = res.analytic.normal.zones
+    ok, why = render_bodies(vtu, png, (zones[0][0], zones[-1][1])) if vtu.is_file() else (
+        False, f"{vtu.name} not found in the VTK series")
+    sec.render, sec.render_note = (png.relative_to(root).as_posix(), "") if ok else ("", why)
+    sec.render_png = png.read_bytes() if ok else b""
+
+
+def _atomic_dir(tmp: Path, out: Path) -> None:
+    """Move the finished ``tmp`` to ``out`` (replacing an old report)."""
+    old = None
+    if out.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
+        os.replace(out, old / out.name)
+    os.replace(tmp, out)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _summary(sections: list[CaseSection], studies: list[ConvergenceStudy], fig5: list[dict],
+             elapsed: float) -> dict:
+    cases = []
+    for s in sections:
+        d = s.result.summary()
+        d.update(render=s.render, render_note=s.render_note, vtk_link=s.vtk_link,
+                 vtk_note=s.vtk_note)
+        cases.append(d)
+    return {"passed": all(s.result.passed for s in sections), "cases": cases,
+            "convergence": [st.summary() for st in studies], "fig5": fig5,
+            "elapsed_seconds": elapsed}
+
+
+def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: str | Path = "report",
+                 convergence_cases: dict | None = None, fig5: bool = True,
+                 progress: Progress | None = None) -> dict:
+    """Run ``cases`` and write the report into ``out_dir``; returns the summary dict.
+
+    All cases are loaded (and validated) before anything is computed: bad input raises
+    :class:`compare.errors.CaseError` and nothing is written.  ``convergence_cases`` maps case
+    names to level tuples (default :data:`DEFAULT_CONVERGENCE`; ``{}`` for none).  ``progress``
+    receives a short message after each unit of work.
+    """
+    t0 = time.perf_counter()
+    loaded = [load_case(c) for c in cases]
+    conv = DEFAULT_CONVERGENCE if convergence_cases is None else convergence_cases
+    conv_cases = {name: (load_case(name), levels) for name, levels in conv.items()}
+    out = Path(out_dir).resolve()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        summary = _build(loaded, conv_cases, fig5, tmp, progress or (lambda msg: None), t0)
+        _atomic_dir(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    summary["index"] = str(out / "index.html")
+    return summary
+
+
+def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, progress: Progress,
+           t0: float) -> dict:
+    (root / "figures").mkdir()
+    sections = []
+    for case in cases:
+        sec = CaseSection(run_case(case))
+        _write_figs(sec, root)
+        _vtk_and_render(sec, root)
+        sections.append(sec)
+        progress(f"case {case.name}: {'agrees' if sec.result.passed else 'FAILS'}")
+    studies, conv_figs = [], {}
+    for name, (case, levels) in conv_cases.items():
+        st = convergence(case, levels=levels)
+        studies.append(st)
+        conv_figs[name] = figures.convergence_figure(st)
+        (root / "figures" / f"{name}_convergence.png").write_bytes(conv_figs[name])
+        progress(f"convergence {name}: pressure order {st.orders['pressure_l2_error']:.2f}, "
+                 f"converges: {st.converges}")
+    rows, fig5_png = [], None
+    if want_fig5:
+        rows = fig5_rows()
+        fig5_png = figures.fig5_figure(rows)
+        (root / "figures" / "fig5.png").write_bytes(fig5_png)
+        (root / "study_fig5.html").write_text(page("Study: paper Fig. 5", study_html(rows, fig5_png),
+                                                   links=False), encoding="utf-8")
+        progress("study Fig. 5 written")
+    summary = _summary(sections, studies, rows, time.perf_counter() - t0)
+    _write_documents(root, sections, studies, conv_figs, want_fig5, summary)
+    return summary
+
+
+def _write_documents(root: Path, sections, studies, conv_figs, want_fig5, summary) -> None:
+    from compare.report.html import convergence_html, convergence_md, index_body, md_document
+
+    body = index_body(sections, summary) + "".join(case_html(s) for s in sections)
+    body += "".join(convergence_html(st, conv_figs[st.case_name]) for st in studies)
+    if want_fig5:
+        body += ('<h2 id="fig5">Study: paper Fig. 5</h2><p><a href="study_fig5.html">'
+                 "Actual vs overlapped extent of the double wedge (study page)</a></p>")
+    (root / "index.html").write_text(page("multicontact verification report", body),
+                                     encoding="utf-8")
+    md = md_document(summary) + "".join(case_md(s) for s in sections)
+    md += "".join(convergence_md(st) for st in studies)
+    if want_fig5:
+        md += "\n## Study: paper Fig. 5\n\n![Fig. 5](figures/fig5.png)\n\nSee study_fig5.html.\n"
+    (root / "report.md").write_text(md, encoding="utf-8")
+    (root / "summary.json").write_text(json.dumps(clean_json(summary), indent=1,
+                                                  allow_nan=False), encoding="utf-8")
+
+
+def clean_json(obj):
+    """Plain JSON data: numpy scalars -> float, non-finite floats -> None (JSON has no NaN)."""
+    if isinstance(obj, dict):
+        return {str(k): clean_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [clean_json(v) for v in obj]
+    if isinstance(obj, (bool, int, str)) or obj is None:
+        return obj
+    try:
+        val = float(obj)
+    except (TypeError, ValueError):
+        return str(obj)
+    return val if math.isfinite(val) else None
+
+
+__all__ = ["DEFAULT_CONVERGENCE", "DEFAULT_SUITE", "clean_json", "write_report"]

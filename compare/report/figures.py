@@ -1,0 +1,146 @@
+"""Matplotlib figures of a case result (PNG bytes; the Agg backend, no display needed)."""
+
+from __future__ import annotations
+
+import io
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from compare.analytic_side import stick_cycle  # noqa: E402
+from compare.run import CaseResult  # noqa: E402
+
+DPI = 90
+CYCLE_POINTS = 12  # analytic stick states per stage in the cycle plot
+
+
+def png(fig) -> bytes:
+    """Render and close a figure."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _plot_x(res: CaseResult) -> np.ndarray:
+    zones = res.analytic.normal.zones
+    lo, hi = zones[0][0], zones[-1][1]
+    pad = 0.08 * (hi - lo)
+    pts = [np.linspace(lo - pad, hi + pad, 1500)]
+    pts += [np.linspace(a, b, 400)[1:-1] for a, b in zones]
+    return np.unique(np.concatenate(pts))
+
+
+def _fe_window(res: CaseResult, it) -> np.ndarray:
+    zones = res.analytic.normal.zones
+    lo, hi = zones[0][0], zones[-1][1]
+    pad = 0.08 * (hi - lo)
+    return (it.x >= lo - pad) & (it.x <= hi + pad)
+
+
+def pressure_figure(res: CaseResult) -> bytes:
+    """Stage-1 end: analytic pressure (line) and FE nodal pressure (points)."""
+    x = _plot_x(res)
+    it = res.fem.stage(1)[-1].interface
+    m = _fe_window(res, it)
+    fig, ax = plt.subplots(figsize=(7.5, 3.2))
+    p_an = res.analytic.normal.pressure(x)
+    ax.plot(x, p_an, "k-", lw=1.3, label="analytic")
+    ax.plot(it.x[m], it.p[m], "o", ms=2.5, color="tab:red", label="FE nodes")
+    top = np.percentile(p_an[p_an > 0], 98) * 1.6 if np.any(p_an > 0) else 1.0
+    ax.set_ylim(0, max(top, float(np.max(it.p[m])) * 1.05 if m.any() else top))
+    ax.set(xlabel="x", ylabel="p(x)", title=f"{res.case.name}: pressure at P = {res.case.P:g}")
+    ax.legend(loc="upper right", fontsize=8)
+    return png(fig)
+
+
+def shear_figure(res: CaseResult) -> bytes | None:
+    """Stages 2 and 3: analytic shear (lines) and FE shear (points) at the sampled Q."""
+    samples = res.analytic.samples
+    if not samples:
+        return None
+    x = _plot_x(res)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.4), sharey=True)
+    for ax, stage in zip(axes, (2, 3), strict=True):
+        states = [s for s in samples if s.stage == stage]
+        colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(states), 1)))
+        for st, col in zip(states, colors, strict=False):
+            it = res.fem.at(stage, Q=st.Q).interface
+            m = _fe_window(res, it)
+            ax.plot(x, st.shear(x), "-", color=col, lw=1.2, label=f"Q/Q0 = {st.Q / res.case.Q0:.2f}")
+            ax.plot(it.x[m], it.q[m], "o", ms=2.0, color=col)
+        ax.axhline(0, color="0.7", lw=0.6)
+        ax.set(xlabel="x", title=f"stage {stage}: shear q(x) (lines analytic, dots FE)")
+        ax.legend(fontsize=7)
+    axes[0].set_ylabel("q(x)")
+    return png(fig)
+
+
+def stick_cycle_figure(res: CaseResult) -> bytes | None:
+    """Stick-zone edges over the loading cycle: analytic curves, FE points at every FE step."""
+    if res.case.Q0 == 0:
+        return None
+    states = stick_cycle(res.case, res.analytic.normal, CYCLE_POINTS)
+    Q0 = res.case.Q0
+    t_an = np.array([_t(s.stage, s.Q, Q0) for s in states])
+    fig, ax = plt.subplots(figsize=(7.5, 3.8))
+    for k, (a, b) in enumerate(res.analytic.normal.zones):
+        for j in (0, 1):
+            e = np.array([np.nan if s.stick_zones[k] is None else s.stick_zones[k][j]
+                          for s in states])
+            ax.plot(t_an, e, "k-", lw=1.1, label="analytic" if k == j == 0 else None)
+        ax.axhspan(a, b, color="0.92", zorder=0)
+    for step in res.fem.stage(2) + res.fem.stage(3):
+        t = _t(step.stage, step.Q, Q0)
+        for s in step.stick_zones:
+            if s is not None:
+                ax.plot([t, t], s, "o", ms=2.5, color="tab:red")
+    ax.plot([], [], "o", ms=2.5, color="tab:red", label="FE")
+    ax.set(xlabel="load parameter (1: Q = Q0, 2: Q = -Q0)", ylabel="stick-zone edges c, d",
+           title=f"{res.case.name}: stick zones over the cycle (grey: contact zones)")
+    ax.legend(fontsize=8)
+    return png(fig)
+
+
+def _t(stage: int, Q: float, Q0: float) -> float:
+    return Q / Q0 if stage == 2 else 1.0 + (Q0 - Q) / (2 * Q0)
+
+
+def convergence_figure(study) -> bytes:
+    """Log-log errors against the study parameter with observed orders."""
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    h = np.asarray(study.parameter)
+    for name, errs in study.errors.items():
+        e = np.asarray(errs, float)
+        if np.all(~np.isfinite(e)):
+            continue
+        ax.loglog(h, e, "o-", label=f"{name} (order {study.orders[name]:.2f})")
+    xlabel = {"h": "finest element length h", "penalty": "1 / penalty factor",
+              "domain": "1 / size factor"}[study.kind]
+    ax.set(xlabel=xlabel, ylabel="error", title=f"{study.case_name}: {study.kind}-convergence")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    return png(fig)
+
+
+def fig5_figure(rows: list[dict]) -> bytes:
+    """Paper Fig. 5: actual vs overlapped extent against P per angle pair, and Pe vs kappa."""
+    n = len(rows)
+    fig, axes = plt.subplots(1, n + 1, figsize=(4.2 * (n + 1), 3.6))
+    for ax, r in zip(axes[:n], rows, strict=True):
+        ax.plot(r["P"], r["actual"], "k-", label="actual (consistency)")
+        ax.plot(r["P"], r["overlapped"], "k--", label="overlapped")
+        if r.get("fem_P"):
+            ax.plot(r["fem_P"], r["fem_extent"], "o", color="tab:red", ms=4, label="FE")
+        ax.set(xlabel="P", ylabel="extent b - a",
+               title=f"({r['label']}) phi1={r['phi1']}, phi2={r['phi2']}")
+        ax.legend(fontsize=7)
+    for r in rows:
+        axes[n].plot(r["kappa"], r["Pe"], "-", label=f"({r['label']})")
+    axes[n].set(xlabel="kappa = actual extent / c", ylabel="Pe (%)", title="(d) percent error")
+    axes[n].legend(fontsize=7)
+    fig.tight_layout()
+    return png(fig)

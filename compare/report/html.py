@@ -1,0 +1,168 @@
+"""HTML and Markdown fragments of the report (figures embedded as base64 PNG in HTML)."""
+
+from __future__ import annotations
+
+import base64
+import html
+import math
+
+CSS = """
+body{font-family:system-ui,Arial,sans-serif;margin:24px auto;max-width:1150px;color:#222}
+table{border-collapse:collapse;margin:8px 0 16px}td,th{border:1px solid #bbb;padding:3px 8px;
+font-size:13px;text-align:right}th{background:#eee}td.l,th.l{text-align:left}
+.pass{color:#176117;font-weight:600}.FAIL{color:#b00000;font-weight:700}.na{color:#777}
+img{max-width:100%;border:1px solid #ddd;margin:6px 0}.note{color:#8a5a00}
+h2{border-bottom:2px solid #ccc;padding-bottom:3px;margin-top:36px}
+"""
+
+
+def img(data: bytes, alt: str) -> str:
+    b64 = base64.b64encode(data).decode("ascii")
+    return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{b64}">'
+
+
+def fmt(v) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "n/a"
+    return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
+def page(title: str, body: str, links: bool = True) -> str:
+    nav = ('<p><a href="report.md">report.md</a> &middot; <a href="summary.json">summary.json'
+           "</a></p>") if links else '<p><a href="index.html">back to the report</a></p>'
+    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}"
+            f"</title><style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>{nav}"
+            f"{body}</body></html>\n")
+
+
+def _status(st: str) -> str:
+    cls = {"pass": "pass", "FAIL": "FAIL"}.get(st, "na")
+    return f'<td class="{cls}">{st}</td>'
+
+
+def index_body(sections, summary: dict) -> str:
+    rows = "".join(
+        f'<tr><td class="l"><a href="#{s.result.case.name}">{s.result.case.name}</a></td>'
+        f'{_status("pass" if s.result.passed else "FAIL")}'
+        f"<td>{fmt(s.result.metrics['edge_error_max'])}</td>"
+        f"<td>{fmt(s.result.metrics['stick_edge_error_max'])}</td>"
+        f"<td>{fmt(s.result.metrics['pressure_l2_error'])}</td>"
+        f"<td>{fmt(s.result.metrics['shear_l2_error'])}</td>"
+        f"<td>{sum(s.result.timings.values()):.1f}</td></tr>" for s in sections)
+    verdict = "all cases agree" if summary["passed"] else "some cases FAIL their tolerances"
+    return (f"<p><b>{verdict}</b> (elapsed {summary['elapsed_seconds']:.0f} s)</p>"
+            "<table><tr><th class='l'>case</th><th>verdict</th><th>edge err</th>"
+            "<th>stick edge err</th><th>pressure L2</th><th>shear L2</th><th>time (s)</th></tr>"
+            f"{rows}</table>")
+
+
+def _checks_table(res) -> str:
+    rows = "".join(f'<tr><td class="l">{c.name}</td><td class="l">{c.metric}</td>'
+                   f"<td>{fmt(c.value)}</td><td>{fmt(c.tolerance)}</td>{_status(c.status)}</tr>"
+                   for c in res.checks)
+    return ("<table><tr><th class='l'>check</th><th class='l'>metric</th><th>value</th>"
+            f"<th>tolerance</th><th>status</th></tr>{rows}</table>")
+
+
+def _zones_table(res) -> str:
+    rows = "".join(
+        f"<tr><td>{z['zone']}</td><td>{fmt(z['analytic'][0])}, {fmt(z['analytic'][1])}</td>"
+        f"<td>{'none' if z['fem'] is None else fmt(z['fem'][0]) + ', ' + fmt(z['fem'][1])}</td>"
+        f"<td>{fmt(max(z['edge_error_rel']))}</td><td>{fmt(z['load_share_analytic'])}</td>"
+        f"<td>{fmt(z['load_share_fem'])}</td></tr>" for z in res.zones)
+    return ("<table><tr><th>zone</th><th>analytic [a, b]</th><th>FE [a, b]</th>"
+            "<th>edge err / width</th><th>load share (an)</th><th>load share (FE)</th></tr>"
+            f"{rows}</table>")
+
+
+def case_html(sec) -> str:
+    res = sec.result
+    c = res.case
+    out = [f'<h2 id="{c.name}">{html.escape(c.name)} &mdash; '
+           f'<span class="{"pass" if res.passed else "FAIL"}">'
+           f'{"agrees" if res.passed else "FAILS"}</span></h2>',
+           f"<p>{html.escape(c.description)}</p>",
+           f"<p>P = {c.P:g}, Q0 = {c.Q0:g}, mu = {c.mu:g}, M = {fmt(c.M)}, E = {c.E:g}, "
+           f"nu = {c.nu:g}; FE level {c.fem.level}, order {c.fem.order}, {res.fem.n_dofs} dofs, "
+           f"h = {res.fem.h_min:.3g}; stick zones: {html.escape(res.analytic.solver)}</p>",
+           _checks_table(res), _zones_table(res)]
+    out += [f"<h3>{html.escape(t)}</h3>{img(d, t)}" for t, d in sec.figures.items()]
+    out.append("<h3>deformed bodies (von Mises stress)</h3>")
+    out.append(f"<p>{img(sec.render_png, 'pyvista picture')}</p>" if sec.render_png else
+               f'<p class="note">{html.escape(sec.render_note)}</p>')
+    out.append(f'<p>VTK series: <a href="{sec.vtk_link}">{sec.vtk_link}</a> (open in ParaView '
+               "or pyvista)</p>" if sec.vtk_link else
+               f'<p class="note">{html.escape(sec.vtk_note)}</p>')
+    out += [f'<p class="note">{html.escape(n)}</p>' for n in res.notes]
+    return "".join(out)
+
+
+def convergence_html(st, png: bytes) -> str:
+    rows = "".join(f"<tr><td class='l'>{m}</td>" + "".join(f"<td>{fmt(v)}</td>" for v in vals)
+                   + f"<td>{fmt(st.orders[m])}</td></tr>" for m, vals in st.errors.items())
+    head = "".join(f"<th>{fmt(v)}</th>" for v in st.values)
+    return (f'<h2 id="conv-{st.case_name}">convergence: {st.case_name} ({st.kind})</h2>'
+            f"<p>converges: <b>{st.converges}</b>; Richardson-extrapolated edges "
+            f"{', '.join(fmt(v) for v in st.richardson_edges)} vs analytic "
+            f"{', '.join(fmt(v) for v in st.analytic_edges)} (error / width "
+            f"{fmt(st.richardson_error)})</p><table><tr><th class='l'>metric \\ level</th>"
+            f"{head}<th>order</th></tr>{rows}</table>{img(png, 'convergence')}")
+
+
+def _fe_vs_actual(r: dict) -> float | None:
+    pairs = zip(r["fem_extent"], r["fem_actual"], strict=True)
+    return max((abs(f - a) / a for f, a in pairs), default=None)
+
+
+def study_html(rows: list[dict], png: bytes) -> str:
+    tab = "".join(
+        f"<tr><td>({r['label']})</td><td>{r['phi1']}</td><td>{r['phi2']}</td>"
+        f"<td>{fmt(r['kappa'][-1])}</td><td>{fmt(r['Pe'][-1])}</td>"
+        f"<td>{fmt(_fe_vs_actual(r))}</td></tr>" for r in rows)
+    return ("<p>Symmetric double wedge (paper Fig. 4): width of one contact zone from the "
+            "consistency conditions (actual), from free interpenetration (overlapped) and from "
+            "the FE model at the stage-1 increments of one history per angle pair.</p>"
+            "<table><tr><th>pair</th><th>phi1</th><th>phi2</th><th>kappa (max)</th>"
+            "<th>Pe at max load (%)</th><th>max |FE - actual| / actual</th></tr>"
+            f"{tab}</table>{img(png, 'paper Fig. 5')}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Markdown
+# ---------------------------------------------------------------------------------------------
+def md_document(summary: dict) -> str:
+    lines = ["# multicontact verification report\n",
+             f"Verdict: **{'all cases agree' if summary['passed'] else 'some cases FAIL'}** "
+             f"(elapsed {summary['elapsed_seconds']:.0f} s). HTML: index.html; data: "
+             "summary.json.\n", "| case | verdict |", "|---|---|"]
+    lines += [f"| {c['case']['name']} | {'pass' if c['passed'] else 'FAIL'} |"
+              for c in summary["cases"]]
+    return "\n".join(lines) + "\n"
+
+
+def case_md(sec) -> str:
+    res = sec.result
+    lines = [f"\n## {res.case.name}: {'agrees' if res.passed else 'FAILS'}\n",
+             res.case.description + "\n", "| check | metric | value | tolerance | status |",
+             "|---|---|---|---|---|"]
+    lines += [f"| {c.name} | {c.metric} | {fmt(c.value)} | {fmt(c.tolerance)} | {c.status} |"
+              for c in res.checks]
+    lines.append("")
+    lines += [f"![{t}](figures/{res.case.name}_{i}.png)" for i, t in enumerate(sec.figures)]
+    lines.append(f"\n![deformed bodies]({sec.render})" if sec.render else
+                 f"\n_{sec.render_note}_")
+    lines.append(f"\nVTK series: [{sec.vtk_link}]({sec.vtk_link})" if sec.vtk_link else
+                 f"\n_{sec.vtk_note}_")
+    return "\n".join(lines) + "\n"
+
+
+def convergence_md(st) -> str:
+    lines = [f"\n## convergence: {st.case_name} ({st.kind})\n",
+             f"converges: **{st.converges}**; Richardson edge error / width "
+             f"{fmt(st.richardson_error)}\n",
+             "| metric | " + " | ".join(fmt(v) for v in st.values) + " | order |",
+             "|---|" + "---|" * (len(st.values) + 1)]
+    lines += [f"| {m} | " + " | ".join(fmt(v) for v in vals) + f" | {fmt(st.orders[m])} |"
+              for m, vals in st.errors.items()]
+    lines.append(f"\n![convergence](figures/{st.case_name}_convergence.png)")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,62 @@
+"""Tolerance helpers for users' own tests.
+
+>>> from compare import run_case
+>>> from compare.testing import assert_agrees
+>>> assert_agrees(run_case("cattaneo"), edge_rtol=0.02)          # doctest: +SKIP
+
+``assert_agrees`` checks the metrics of a :class:`compare.run.CaseResult` against tolerances
+(the case's named tolerances unless overridden) and fails with a table listing every metric,
+its value, its tolerance and pass/FAIL.
+"""
+
+from __future__ import annotations
+
+import math
+
+from compare.run import EXACT_CHECKS, CaseResult, Check
+from compare.tolerances import METRIC_OF
+
+#: keyword of assert_agrees -> name of the tolerance it overrides
+KEYWORDS = {"edge_rtol": "edge", "stick_rtol": "stick", "pressure_rtol": "pressure",
+            "shear_rtol": "shear", "load_share_atol": "load_share", "moment_atol": "moment",
+            "rotation_rtol": "rotation", "uncoupling_rtol": "uncoupling",
+            "jc_rtol": "jaeger_ciavarella"}
+
+
+class DisagreementError(AssertionError):
+    """The FE result is farther from the analytic one than the tolerances allow."""
+
+
+def format_checks(checks, title: str = "") -> str:
+    """Aligned table: name, metric, value, tolerance, status."""
+    lines = [title] if title else []
+    lines.append(f"  {'check':<18} {'metric':<24} {'value':>11} {'tolerance':>11}  status")
+    for c in checks:
+        val = "n/a" if math.isnan(c.value) else f"{c.value:.4g}"
+        lines.append(f"  {c.name:<18} {c.metric:<24} {val:>11} {c.tolerance:>11.4g}  {c.status}")
+    return "\n".join(lines)
+
+
+def assert_agrees(result: CaseResult, **tolerances: float) -> None:
+    """Assert that FE and analytic solutions agree within the tolerances.
+
+    Keywords (all optional, override the case's named tolerances): ``edge_rtol``,
+    ``stick_rtol``, ``pressure_rtol``, ``shear_rtol``, ``load_share_atol``, ``moment_atol``,
+    ``rotation_rtol``, ``uncoupling_rtol``, ``jc_rtol``.  The zone-count and full-slip counts must
+    be zero.  NaN metrics (not applicable) pass.  Raises :class:`DisagreementError`.
+    """
+    bad = sorted(set(tolerances) - set(KEYWORDS))
+    if bad:
+        raise TypeError(f"assert_agrees: unknown keyword(s) {bad}; allowed {sorted(KEYWORDS)}")
+    tol = dict(result.case.tolerances)
+    tol.update({KEYWORDS[k]: float(v) for k, v in tolerances.items()})
+    checks = [Check(n, METRIC_OF[n], float(result.metrics.get(METRIC_OF[n], math.nan)), t)
+              for n, t in tol.items()]
+    checks += [Check(n, k, float(result.metrics.get(k, math.nan)), 0.0)
+               for n, k in EXACT_CHECKS.items()]
+    failed = [c for c in checks if not c.passed]
+    if failed:
+        names = ", ".join(f"{c.name} ({c.metric}={c.value:.4g} > {c.tolerance:.4g})"
+                          for c in failed)
+        raise DisagreementError(format_checks(
+            checks, f"case '{result.case.name}': FE and analytic solutions disagree: {names}"))

@@ -1,0 +1,44 @@
+"""assert_agrees on synthetic results: messages list every metric, value and tolerance."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pytest
+
+from compare.testing import DisagreementError, assert_agrees
+from compare.tolerances import DEFAULTS
+
+
+def fake(**metrics):
+    base = {"edge_error_max": 0.001, "stick_edge_error_max": 0.002, "pressure_l2_error": 0.01,
+            "shear_l2_error": 0.02, "load_share_error_max": 0.0, "moment_error": 0.0,
+            "rotation_error": float("nan"), "uncoupling_error": 0.0, "jc_error": 0.01,
+            "zone_count_mismatch": 0.0, "full_slip_mismatches": 0.0}
+    base.update(metrics)
+    return SimpleNamespace(case=SimpleNamespace(name="fake", tolerances=dict(DEFAULTS)),
+                           metrics=base)
+
+
+def test_passes_within_tolerances():
+    assert_agrees(fake())
+
+
+def test_failure_message_lists_metric_value_tolerance():
+    with pytest.raises(DisagreementError) as exc:
+        assert_agrees(fake(edge_error_max=0.05), edge_rtol=0.02)
+    msg = str(exc.value)
+    assert "edge (edge_error_max=0.05 > 0.02)" in msg
+    for name in ("stick_edge_error_max", "pressure_l2_error", "shear_l2_error"):
+        assert name in msg
+    assert "FAIL" in msg and "n/a" in msg
+
+
+def test_zone_count_mismatch_fails():
+    with pytest.raises(DisagreementError, match="zone_count"):
+        assert_agrees(fake(zone_count_mismatch=1.0))
+
+
+def test_unknown_keyword():
+    with pytest.raises(TypeError, match="edge_tol"):
+        assert_agrees(fake(), edge_tol=0.1)

@@ -1,0 +1,130 @@
+"""Verification report: files, links, JSON, and rendering in headless Chromium."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from compare.report import write_report
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+class Links(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.refs, self.ids = [], set()
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if "id" in a:
+            self.ids.add(a["id"])
+        for key in ("href", "src"):
+            if a.get(key):
+                self.refs.append(a[key])
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("rep") / "report"
+    write_report(["hertz", "cattaneo"], out, convergence_cases={"hertz": (-1, 0)}, fig5=False)
+    return out
+
+
+def test_files_and_summary(report):
+    for name in ("index.html", "report.md", "summary.json"):
+        assert (report / name).is_file()
+    s = json.loads((report / "summary.json").read_text())
+    assert s["passed"] is True
+    assert [c["case"]["name"] for c in s["cases"]] == ["hertz", "cattaneo"]
+    assert s["cases"][1]["metrics"]["stick_edge_error_max"] < 0.06
+    assert s["convergence"][0]["kind"] == "h"
+    assert not list(report.parent.glob(".report.tmp-*"))
+
+
+def test_html_self_contained_and_links_resolve(report):
+    text = (report / "index.html").read_text()
+    p = Links()
+    p.feed(text)
+    embedded = [r for r in p.refs if r.startswith("data:image/png;base64,")]
+    assert len(embedded) >= 5  # pressure x2, shear, cycle, convergence (+ pyvista pictures)
+    for ref in p.refs:
+        if ref.startswith("data:"):
+            continue
+        if ref.startswith("#"):
+            assert ref[1:] in p.ids, ref
+        else:
+            assert (report / ref).is_file(), f"broken link {ref}"
+    assert "vtk/cattaneo/history.pvd" in p.refs
+    for ref in re.findall(r"\]\(([^)]+)\)", (report / "report.md").read_text()):
+        assert (report / ref).is_file(), f"broken markdown link {ref}"
+
+
+def test_pvd_series_files_exist(report):
+    pvd = (report / "vtk" / "cattaneo" / "history.pvd").read_text()
+    files = re.findall(r'file="([^"]+)"', pvd)
+    assert files and all((report / "vtk" / "cattaneo" / f).is_file() for f in files)
+
+
+def test_pyvista_picture_or_reason(report):
+    s = json.loads((report / "summary.json").read_text())
+    for c in s["cases"]:
+        assert c["render"] or c["render_note"]
+        if c["render"]:
+            assert (report / c["render"]).stat().st_size > 10_000
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium not installed (Debian package "
+                    "'chromium'); the report rendering check needs it")
+def test_renders_in_headless_chromium(report, tmp_path):
+    shot = tmp_path / "shot.png"
+    subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu",
+                    f"--screenshot={shot}", "--window-size=1200,2000",
+                    (report / "index.html").as_uri()], capture_output=True, timeout=120,
+                   check=False)
+    assert shot.is_file(), "chromium wrote no screenshot"
+    import matplotlib.image as mpimg
+
+    rgb = mpimg.imread(shot)[..., :3]
+    assert rgb.std() > 0.05, "blank screenshot"
+    non_white = np.mean(rgb.min(axis=2) < 0.9)
+    assert non_white > 0.05, f"only {non_white:.1%} of the page is not white"
+    saturation = rgb.max(axis=2) - rgb.min(axis=2)
+    coloured = np.mean(saturation > 0.3)  # plot lines/points, pyvista colours, pass marks
+    assert coloured > 0.005, f"figures not visible: {coloured:.2%} coloured pixels"
+
+
+@pytest.mark.slow
+def test_default_suite_report(tmp_path):
+    s = write_report(out_dir=tmp_path / "report")
+    assert s["passed"] and s["fig5"]
+    assert (tmp_path / "report" / "study_fig5.html").is_file()
+
+
+def test_failure_midway_leaves_no_partial_report(tmp_path, monkeypatch):
+    import compare.report as rep
+
+    def boom(case, *a, **k):
+        raise RuntimeError("solver exploded")
+
+    monkeypatch.setattr(rep, "run_case", boom)
+    out = tmp_path / "report"
+    with pytest.raises(RuntimeError, match="exploded"):
+        write_report(["hertz"], out, convergence_cases={}, fig5=False)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_old_report_replaced_atomically(tmp_path):
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "stale.txt").write_text("old")
+    write_report(["hertz"], out, convergence_cases={}, fig5=False)
+    assert not (out / "stale.txt").exists() and (out / "index.html").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]

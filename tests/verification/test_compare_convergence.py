@@ -1,0 +1,46 @@
+"""Convergence studies: Hertz under uniform h-refinement with linear (Q4) elements.
+
+Expected order of the relative L2 pressure error: 1.  The nodal penalty traction carries an
+O(h) penetration error (k_n = 100 E / h), and the square-root edges of the Hertz pressure limit
+the piecewise-linear approximation near the edges to O(h^1.5) in L2, so O(h) dominates.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from compare import convergence
+
+THEORETICAL_ORDER = 1.0
+ORDER_BAND = 0.35  # three coarse levels give the slope to about +-0.3
+
+
+def test_hertz_pressure_order_close_to_one():
+    st = convergence("hertz", levels=(-1, 0, 1))
+    order = st.orders["pressure_l2_error"]
+    assert abs(order - THEORETICAL_ORDER) < ORDER_BAND, st.summary()
+    assert st.converges
+    assert st.errors["pressure_l2_error"][-1] < 0.5 * st.errors["pressure_l2_error"][0]
+
+
+@pytest.mark.slow
+def test_hertz_richardson_edges_close_to_analytic():
+    st = convergence("hertz", levels=(0, 1, 2, 3))
+    assert abs(st.orders["pressure_l2_error"] - THEORETICAL_ORDER) < ORDER_BAND
+    assert st.richardson_error < 2e-3
+
+
+def test_cattaneo_domain_size_order():
+    """Finite-body error of the FE bodies against the half-plane solution: order ~1 in 1/W."""
+    st = convergence("cattaneo", kind="domain", values=(4.0, 8.0, 25.0))
+    assert st.orders["pressure_l2_error"] > 0.7 and st.orders["edge_error_max"] > 0.7
+    assert st.converges
+
+
+@pytest.mark.slow
+def test_cattaneo_penalty_growth_reaches_discretisation_error():
+    """Penalty error falls until the mesh error dominates; the default factor is past that."""
+    st = convergence("cattaneo", kind="penalty", values=(1.0, 10.0, 100.0, 1000.0))
+    err = st.errors["pressure_l2_error"]
+    assert err[0] > 1.5 * err[1]
+    assert abs(err[3] - err[2]) < 0.1 * err[2]
