@@ -142,7 +142,7 @@ def _moment_metrics(case: Case, an: AnalyticResult, end: fem.FemStep) -> dict:
     span = ns.zones[-1][1] - ns.zones[0][0]
     if case.M is None:
         return {"moment_error": abs(end.M - ns.M) / (case.P * span), "rotation_error": NAN}
-    theta_fe = -float(end.plate[2])  # fem: plate rotation counter-clockwise; analytic: h0 - theta x
+    theta_fe = float(end.plate[2])  # both sides: the gap in contact is h0(x) - theta x
     den = abs(ns.theta) if ns.theta != 0 else 1.0
     return {"moment_error": NAN, "rotation_error": abs(theta_fe - ns.theta) / den}
 

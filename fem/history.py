@@ -392,7 +392,7 @@ def make_step(
         interface=fi,
         contact_zones=zones,
         stick_zones=sticks,
-        plate=tuple(float(v) for v in st.z),
+        plate=(float(st.z[0]), float(st.z[1]), -float(st.z[2])),  # theta: h = h0 - theta x
         reactions=reac,
         residuals=res,
         iterations=st.iterations,

@@ -41,7 +41,8 @@ class FemStep:
     stage: 1, 2 or 3; t: load-step parameter (stage 1: P/P0, stage 2: 1 + Q/Q0,
     stage 3: 2 + (Q0 - Q)/(2 Q0)); P, Q, M: applied loads (M computed in
     vertical-indentation mode); contact_zones: ((a, b), ...); stick_zones: one
-    (c, d) or None per contact zone; plate: (u, v, theta) of the plate about (0, 0);
+    (c, d) or None per contact zone; plate: (u, v, theta) of the plate, theta about (0, 0)
+    in the analytic convention (the gap seen in contact is h0(x) - theta x, i.e. clockwise);
     reactions: (P, Q, M) recovered from the full-field plate reactions;
     residuals: relative equilibrium residuals (P, Q, M) of those reactions;
     iterations: Newton iterations of the increment (summed over cut-backs / Uzawa).
