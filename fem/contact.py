@@ -190,12 +190,23 @@ def solve_sets(prob: InterfaceProblem, old: ContactState, status, sign, load: Lo
     return lam, z, d
 
 
-def first_guess(prob: InterfaceProblem, old: ContactState) -> np.ndarray:
-    """Elastic predictor: previously active pairs stick; first-touch pairs if none is active."""
+FIRST_MOMENT_PAIRS = 3  # rotation free: a moment needs >= 2 pairs to be carried at all
+
+
+def first_guess(prob: InterfaceProblem, old: ContactState, load: Load) -> np.ndarray:
+    """Elastic predictor: previously active pairs stick; if none is active, the first-touch
+    pairs, or, with the rotation free, the pairs nearest the load centre M/P (one pair alone
+    cannot balance a moment: the plate equations would be singular)."""
     status = np.where(old.status > OPEN, STICK, OPEN).astype(np.int8)
-    if not np.any(status):
-        gap = prob.h0 + old.d[prob.n :]
-        status[gap <= gap.min() + 1e-12 * max(1.0, abs(gap.min()))] = STICK
+    if np.any(status):
+        return status
+    gap = prob.h0 + old.d[prob.n :]
+    if not prob.lock_theta and load.M is not None and load.P > 0:
+        reachable = np.flatnonzero(np.isfinite(prob.h0))
+        nearest = np.argsort(np.abs(prob.x[reachable] - load.M / load.P))
+        status[reachable[nearest[:FIRST_MOMENT_PAIRS]]] = STICK
+        return status
+    status[gap <= gap.min() + 1e-12 * max(1.0, abs(gap.min()))] = STICK
     return status
 
 
@@ -208,7 +219,7 @@ def solve_increment(
     max_iter: int,
 ) -> ContactState:
     """Semi-smooth Newton (active-set) iteration for one load increment."""
-    status = first_guess(prob, old)
+    status = first_guess(prob, old, load)
     sign = np.sign(old.lam[: prob.n])
     seen = set()
     for it in range(1, max_iter + 1):

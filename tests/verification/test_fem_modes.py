@@ -61,3 +61,29 @@ def test_applied_moment_mode_balances_moment():
     ((a, b),) = s.contact_zones
     assert b + a > 0.05 * A_HERTZ
     assert s.plate[2] != 0.0
+
+
+def test_applied_moment_on_a_cylinder_starts_from_a_point_touch():
+    """Rotation free, first touch at a single node: the plate must still balance M.
+
+    Closed form (Hertz, tilted): theta = M/(P R), contact centred at M/P (analytic convention:
+    the gap in contact is h0 - theta x, so FemStep.plate[2] = theta > 0 for M > 0).
+    """
+    M = 0.2 * P * A_HERTZ
+    h = fem.solve_history(
+        lambda x: x**2 / (2 * R),
+        P,
+        0.0,
+        MU,
+        E,
+        NU,
+        M=M,
+        window=(-2 * A_HERTZ, 2 * A_HERTZ),
+        mesh=fem.MeshSpec(level=0),
+        increments=fem.LoadPath(n_normal=4),
+    )
+    s = h.steps[-1]
+    assert np.isclose(s.plate[2], M / (P * R), rtol=1e-3)
+    (a, b), = s.contact_zones
+    assert abs(0.5 * (a + b) - M / P) < 0.02 * A_HERTZ
+    assert max(s.residuals) < 1e-8
