@@ -258,6 +258,12 @@ class System:
         d = sign_exponent(np.atleast_1d(x), lay.edges, lay.pinned)
         return sign_from_d(d) * w_abs(np.atleast_1d(x), lay.edges, lay.eps)
 
+    def gap_slope(self, x: np.ndarray) -> np.ndarray:
+        """Deformed-gap slope ``g'(x) = W(x) B(x)/pi`` at absolute x outside the zones."""
+        x = np.atleast_1d(np.asarray(x, float))
+        H = self.profile.dh0(x) - self.theta
+        return self.W_real(x) * self.B(x - self.xc, H, self.profile.d2h0(x)) / np.pi
+
     def pressure_inside(self, x: np.ndarray) -> np.ndarray:
         """p at absolute x known to lie inside the zones.
 

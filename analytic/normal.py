@@ -413,22 +413,42 @@ def _check_points_inside(edges: np.ndarray, n_pts: int = 49,
     return np.concatenate(pts)
 
 
-def _check_points_outside(st: _State, profile: Profile) -> np.ndarray:
+def _gap_candidates(st: _State, sys_: System, profile: Profile) -> np.ndarray:
+    """Where the deformed gap can be smallest outside the zones.
+
+    ``g = 0`` at every edge and ``g' = W B/pi`` is cheap (no integral), so the minima of g are
+    found from sign changes of ``g'`` on a grid in every gap and on geometric grids beyond the
+    outer edges; the profile's own local minima, kinks and corners are added (new zones touch
+    there).  Only these few points need the integral for g itself.
+    """
     e = st.layout.edges
-    pts = []
-    for m in range(st.layout.n - 1):
-        b, a = e[2 * m + 1], e[2 * m + 2]
-        t = 0.5 * (1 - np.cos(np.pi * (np.arange(10) + 0.5) / 10))
-        pts.append(b + (a - b) * t)
     span = max(e[-1] - e[0], profile.scale)
-    d = span * np.geomspace(1e-3, 3.0, 12)
-    pts += [e[0] - d, e[-1] + d]
-    mins = [0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
-    pts.append(np.asarray(mins + list(profile.corners) + list(profile.kinks), float))
-    x = np.concatenate(pts)
+    t = 0.5 * (1 - np.cos(np.pi * (np.arange(24) + 0.5) / 24))
+    d = span * np.geomspace(1e-4, 3.0, 24)
+    runs = [e[2 * m + 1] + (e[2 * m + 2] - e[2 * m + 1]) * t for m in range(st.layout.n - 1)]
+    runs += [e[-1] + d, e[0] - d]
+    cands = [np.asarray([0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
+                        + list(profile.corners) + list(profile.kinks), float)]
     lo, hi = profile.support
+    for x in runs:
+        x = x[(x >= lo) & (x <= hi) & np.isfinite(profile.h0(x))]
+        if x.size:
+            cands.append(_slope_minima(x, sys_.gap_slope(x)))
+    x = np.concatenate(cands)
     x = x[(x >= lo) & (x <= hi)]
     return x[~_inside(x, e) & ~np.isin(x, e)]
+
+
+def _slope_minima(x: np.ndarray, gp: np.ndarray) -> np.ndarray:
+    """Points where g' turns from negative to positive along x (ordered away from the edge),
+    the first point if g already falls there, and the last point if g still falls there."""
+    out = [x[0]] if gp[0] < 0 else []
+    for i in np.flatnonzero((gp[:-1] < 0) & (gp[1:] >= 0)):
+        f = gp[i] / (gp[i] - gp[i + 1])
+        out.append(x[i] + f * (x[i + 1] - x[i]))
+    if gp[-1] < 0:
+        out.append(x[-1])
+    return np.asarray(out, float)
 
 
 @dataclass(frozen=True)
@@ -445,7 +465,7 @@ def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event 
     st.checks = {"min_pressure": float(np.min(p)), "min_gap": 0.0}
     if np.min(p) < -ADMISSIBLE_TOL * P_scale:
         return _pressure_event(st, xi, p)
-    xo = _check_points_outside(st, profile)
+    xo = _gap_candidates(st, sys_, profile)
     if xo.size:
         g = deformed_gap(sys_, xo)
         st.checks["min_gap"] = float(np.min(g))
@@ -787,7 +807,7 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
 
 
 def _fresh_checks(st: _State, sys_: System, profile: Profile) -> dict:
-    xo = _check_points_outside(st, profile)
+    xo = _gap_candidates(st, sys_, profile)
     p = sys_.pressure_inside(_check_points_inside(st.layout.edges, profile=profile,
                                                   theta=st.theta))
     return {"min_pressure": float(np.min(p)),
@@ -813,7 +833,7 @@ def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> 
 # ---------------------------------------------------------------------------------------------
 # per-zone loads and moments (contour integrals of Phi = W Psi)
 # ---------------------------------------------------------------------------------------------
-CONTOUR_NODES = 256
+CONTOUR_NODES = 160
 
 
 def zone_loads(sys_: System) -> list[float]:
