@@ -101,6 +101,6 @@ def overlap_guess(profile: Profile, theta: float, P: float, A: float) -> Layout 
     edges = np.asarray([v for z in zones for v in z], float)
     if edges.size == 0 or np.any(np.diff(edges) <= 0):
         return None
-    if np.any(np.isin(edges, profile.corners)):
+    if np.any(np.isin(edges, profile.pin_points)):
         return None
     return Layout(edges, np.zeros(edges.size, bool))

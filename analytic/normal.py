@@ -202,7 +202,10 @@ def _feasible(st: _State, profile: Profile) -> bool:
     if e[0] < lo - 1e-14 * st.ell or e[-1] > hi + 1e-14 * st.ell:
         return False
     inner = profile.h0(e[~st.layout.pinned])
-    return bool(np.all(np.isfinite(inner)))
+    if not np.all(np.isfinite(inner)):
+        return False
+    z = e.reshape(-1, 2)
+    return not any(np.any((z[:, 0] < q) & (q < z[:, 1])) for q in profile.ridges)
 
 
 class _NewtonFailed(Exception):
@@ -316,7 +319,7 @@ def _touch_set(profile: Profile, theta: float) -> list[tuple[float, float, float
 
 def _start_zone(profile: Profile, lo: float, hi: float, size: float) -> tuple[list, list]:
     """Tiny zone around a first-touch point / flat face: edges and singular flags."""
-    corners = profile.corners
+    corners = profile.pin_points
     at_lo, at_hi = lo in corners, hi in corners
     if lo == hi:
         if at_lo:
@@ -332,7 +335,7 @@ def _start_zone(profile: Profile, lo: float, hi: float, size: float) -> tuple[li
 
 def _feature_size(profile: Profile, x: float, touches: list) -> float:
     marks = [m[0] for m in touches] + [m[1] for m in touches] + list(profile.kinks)
-    marks += list(profile.corners)
+    marks += list(profile.pin_points)
     d = [abs(x - q) for q in marks if abs(x - q) > 1e-12 * profile.scale]
     return min([profile.scale, *d])
 
@@ -428,7 +431,7 @@ def _gap_candidates(st: _State, sys_: System, profile: Profile) -> np.ndarray:
     runs = [e[2 * m + 1] + (e[2 * m + 2] - e[2 * m + 1]) * t for m in range(st.layout.n - 1)]
     runs += [e[-1] + d, e[0] - d]
     cands = [np.asarray([0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
-                        + list(profile.corners) + list(profile.kinks), float)]
+                        + list(profile.pin_points) + list(profile.kinks), float)]
     lo, hi = profile.support
     for x in runs:
         x = x[(x >= lo) & (x <= hi) & np.isfinite(profile.h0(x))]
@@ -453,9 +456,10 @@ def _slope_minima(x: np.ndarray, gp: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class _Event:
-    kind: str       # "add", "merge", "split", "release", "pin"
+    kind: str       # "add", "merge", "grow", "split", "shrink", "release", "pin"
     where: float
     index: int = -1
+    interval: tuple[float, float] | None = None
 
 
 def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event | None:
@@ -471,7 +475,7 @@ def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event 
         st.checks["min_gap"] = float(np.min(g))
         g_scale = A * st.P + 1e-300
         if np.min(g) < -ADMISSIBLE_TOL * g_scale:
-            return _gap_event(st, xo[int(np.argmin(g))])
+            return _gap_event(st, float(xo[int(np.argmin(g))]), sys_, profile)
     return None
 
 
@@ -489,14 +493,24 @@ def _pressure_event(st: _State, xi: np.ndarray, p: np.ndarray) -> _Event:
     return _Event("split", x, k)
 
 
-def _gap_event(st: _State, x: float) -> _Event:
+def _gap_event(st: _State, x: float, sys_: System, profile: Profile) -> _Event:
+    """Classify a negative deformed gap at x by the extent of ``{g < 0}`` around it: touching
+    both neighbouring edges -> merge; one edge -> that edge grows to the end of the overlap;
+    neither -> a new zone on the overlap interval (the Section 6 guess)."""
+    lo, hi = _negative_gap_interval(sys_, x, profile)
     e = st.layout.edges
     k = int(np.searchsorted(e, x))
-    if 0 < k < e.size and k % 2 == 0:
-        b, a = e[k - 1], e[k]
-        if min(x - b, a - x) < 0.02 * (a - b):
-            return _Event("merge", x, k // 2 - 1)
-    return _Event("add", x)
+    left = k - 1 if k > 0 else None        # index of the edge bounding the gap on the left
+    right = k if k < e.size else None
+    at_left = left is not None and lo <= e[left]
+    at_right = right is not None and hi >= e[right]
+    if at_left and at_right:
+        return _Event("merge", x, k // 2 - 1)
+    if at_left:
+        return _Event("grow", hi, left)
+    if at_right:
+        return _Event("grow", lo, right)
+    return _Event("add", x, interval=(lo, hi))
 
 
 def _apply_event(st: _State, ev: _Event, sys_: System, profile: Profile) -> _State:
@@ -506,11 +520,13 @@ def _apply_event(st: _State, ev: _Event, sys_: System, profile: Profile) -> _Sta
         m = ev.index
         del edges[2 * m + 1: 2 * m + 3]
         del pinned[2 * m + 1: 2 * m + 3]
+    elif ev.kind == "grow":
+        edges[ev.index] = ev.where
     elif ev.kind == "add":
-        lo, hi = _negative_gap_interval(sys_, ev.where, profile)
+        lo, hi = ev.interval
         k = int(np.searchsorted(edges, ev.where))
         edges[k:k] = [lo, hi]
-        pinned[k:k] = [lo in profile.corners, hi in profile.corners]
+        pinned[k:k] = [lo in profile.pin_points, hi in profile.pin_points]
     elif ev.kind == "split":
         k = ev.index
         a, b = edges[2 * k], edges[2 * k + 1]
@@ -540,6 +556,9 @@ def _negative_gap_interval(sys_: System, x: float, profile: Profile) -> tuple[fl
     k = int(np.searchsorted(e, x))
     left_wall = e[k - 1] if k > 0 else profile.support[0]
     right_wall = e[k] if k < e.size else profile.support[1]
+    ridges = np.asarray(profile.ridges)  # a zone cannot span a ridge: stop there
+    left_wall = max([left_wall, *ridges[ridges < x]])
+    right_wall = min([right_wall, *ridges[ridges > x]])
     span = max(e[-1] - e[0], profile.scale)
     lo = _walk(g, x, max(left_wall, x - 2 * span), profile)
     hi = _walk(g, x, min(right_wall, x + 2 * span), profile)
@@ -555,7 +574,7 @@ def _walk(g, x: float, wall: float, profile: Profile) -> float:
         gt = g(t) if np.isfinite(profile.h0(np.array([t]))[0]) else np.inf
         if gt >= 0:
             if not np.isfinite(gt):
-                corner = [c for c in profile.corners if min(prev, t) <= c <= max(prev, t)]
+                corner = [c for c in profile.pin_points if min(prev, t) <= c <= max(prev, t)]
                 return corner[0] if corner else prev
             return brentq(g, prev, t, xtol=1e-14 * max(1.0, abs(t)))
         prev = t
@@ -633,7 +652,7 @@ def _pin_corners(st: _State, profile: Profile) -> _State:
     """A free edge sitting on a corner becomes singular there."""
     e, pinned = st.layout.edges.copy(), st.layout.pinned.copy()
     for i in np.flatnonzero(~pinned):
-        for c in profile.corners:
+        for c in profile.pin_points:
             if abs(e[i] - c) < 1e-10 * st.ell:
                 e[i], pinned[i] = c, True
     if np.array_equal(pinned, st.layout.pinned):
@@ -651,7 +670,7 @@ def _pin_nearby_corner(st: _State, profile: Profile, A: float) -> _State | None:
     best, where = None, None
     for i in np.flatnonzero(~pinned):
         width = e[i - (i % 2) + 1] - e[i - (i % 2)]
-        for c in profile.corners:
+        for c in profile.pin_points:
             d = abs(e[i] - c)
             if d <= PIN_DISTANCE * width and (best is None or d < best[0]):
                 best, where = (d, i), c

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -99,6 +100,26 @@ class Profile:
         return self._eval(x, "d2h", np.nan)
 
     __call__ = h0
+
+    @cached_property
+    def ridges(self) -> tuple[float, ...]:
+        """Kinks where the slope drops (a ridge of h0, e.g. where two punches of a union meet).
+
+        A contact zone cannot span a ridge (the pressure would be log-singular towards -inf
+        there); it can end at one as a singular edge, like at a sharp corner.
+        """
+        out = []
+        for q in self.kinks:
+            d = 1e-9 * max(self.scale, abs(q), 1e-300)
+            left, right = self.dh0(np.array([q - d, q + d]))
+            if np.isfinite(left) and np.isfinite(right) and right < left:
+                out.append(q)
+        return tuple(out)
+
+    @cached_property
+    def pin_points(self) -> tuple[float, ...]:
+        """Where a contact edge may be singular: sharp corners and ridges."""
+        return tuple(sorted(set(self.corners) | set(self.ridges)))
 
     @property
     def support(self) -> tuple[float, float]:
