@@ -64,7 +64,7 @@ def cmd_solve(args) -> int:
     ns = an.normal
     data = {"case": case.name, "zones": ns.zones, "singular": ns.singular,
             "zone_loads": ns.zone_loads, "P": ns.P, "M": ns.M, "theta": ns.theta,
-            "mode": ns.mode, "residuals": ns.residuals, "stick_solver": an.solver,
+            "mode": ns.mode, "residuals": ns.residuals,
             "samples": [{"stage": s.stage, "Q": s.Q, "stick_zones": s.stick_zones,
                          "full_slip": s.full_slip} for s in an.samples]}
     if args.json:

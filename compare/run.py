@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -79,7 +79,6 @@ class CaseResult:
     checks: tuple
     timings: dict
     vtk: str | None = None
-    notes: tuple = field(default_factory=tuple)
 
     @property
     def passed(self) -> bool:
@@ -95,10 +94,9 @@ class CaseResult:
                 "checks": [{"name": c.name, "metric": c.metric, "value": _json_float(c.value),
                             "tolerance": c.tolerance, "status": c.status} for c in self.checks],
                 "zones": self.zones, "samples": self.samples, "timings": self.timings,
-                "vtk": self.vtk, "notes": list(self.notes),
+                "vtk": self.vtk,
                 "fem": {"n_dofs": self.fem.n_dofs, "order": self.fem.order,
-                        "h_min": self.fem.h_min, "backend": self.fem.backend},
-                "stick_solver": self.analytic.solver}
+                        "h_min": self.fem.h_min, "backend": self.fem.backend}}
 
 
 def _json_float(v: float) -> float | None:
@@ -257,12 +255,9 @@ def run_case(case: Case | str | Path, vtk_dir: str | Path | None = None,
     hist = run_fem(case, an.normal)
     t2 = time.perf_counter()
     m, zones, samples = evaluate(case, an, hist)
-    notes = () if an.solver == "analytic.solve_stick" else (
-        "stick zones from the Jaeger-Ciavarella fallback in compare.analytic_side "
-        "(analytic.solve_stick not available)",)
     vtk = None if vtk_dir is None else str(fem.write_vtk(hist, vtk_dir))
     return CaseResult(case=case, analytic=an, fem=hist, metrics=m, zones=zones, samples=samples,
                       checks=checks_for(m, case.tolerances),
                       timings={"analytic": t1 - t0, "fem": t2 - t1,
                                "compare": time.perf_counter() - t2},
-                      vtk=vtk, notes=notes)
+                      vtk=vtk)

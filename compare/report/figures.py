@@ -10,11 +10,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from compare.analytic_side import stick_cycle  # noqa: E402
+import analytic  # noqa: E402
 from compare.run import CaseResult  # noqa: E402
 
 DPI = 90
-CYCLE_POINTS = 12  # analytic stick states per stage in the cycle plot
+CYCLE_POINTS = 12  # analytic load steps per leg of the cycle plot (analytic.cycle)
 
 
 def png(fig) -> bytes:
@@ -83,15 +83,15 @@ def stick_cycle_figure(res: CaseResult) -> bytes | None:
     """Stick-zone edges over the loading cycle: analytic curves, FE points at every FE step."""
     if res.case.Q0 == 0:
         return None
-    states = stick_cycle(res.case, res.analytic.normal, CYCLE_POINTS)
     Q0 = res.case.Q0
-    t_an = np.array([_t(s.stage, s.Q, Q0) for s in states])
+    cyc = analytic.cycle(res.analytic.normal, res.case.mu, Q0, n=3 * CYCLE_POINTS + 1)
+    keep = cyc.stage <= 3  # the FE history covers stages 2 and 3
+    t_an = np.array([_t(st, q, Q0) for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
+    edges = cyc.stick_edges[keep]  # nan where a zone is in full slip
     fig, ax = plt.subplots(figsize=(7.5, 3.8))
     for k, (a, b) in enumerate(res.analytic.normal.zones):
         for j in (0, 1):
-            e = np.array([np.nan if s.stick_zones[k] is None else s.stick_zones[k][j]
-                          for s in states])
-            ax.plot(t_an, e, "k-", lw=1.1, label="analytic" if k == j == 0 else None)
+            ax.plot(t_an, edges[:, k, j], "k-", lw=1.1, label="analytic" if k == j == 0 else None)
         ax.axhspan(a, b, color="0.92", zorder=0)
     for step in res.fem.stage(2) + res.fem.stage(3):
         t = _t(step.stage, step.Q, Q0)

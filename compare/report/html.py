@@ -84,7 +84,7 @@ def case_html(sec) -> str:
            f"<p>{html.escape(c.description)}</p>",
            f"<p>P = {c.P:g}, Q0 = {c.Q0:g}, mu = {c.mu:g}, M = {fmt(c.M)}, E = {c.E:g}, "
            f"nu = {c.nu:g}; FE level {c.fem.level}, order {c.fem.order}, {res.fem.n_dofs} dofs, "
-           f"h = {res.fem.h_min:.3g}; stick zones: {html.escape(res.analytic.solver)}</p>",
+           f"h = {res.fem.h_min:.3g}</p>",
            _checks_table(res), _zones_table(res)]
     out += [f"<h3>{html.escape(t)}</h3>{img(d, t)}" for t, d in sec.figures.items()]
     out.append("<h3>deformed bodies (von Mises stress)</h3>")
@@ -93,7 +93,6 @@ def case_html(sec) -> str:
     out.append(f'<p>VTK series: <a href="{sec.vtk_link}">{sec.vtk_link}</a> (open in ParaView '
                "or pyvista)</p>" if sec.vtk_link else
                f'<p class="note">{html.escape(sec.vtk_note)}</p>')
-    out += [f'<p class="note">{html.escape(n)}</p>' for n in res.notes]
     return "".join(out)
 
 
