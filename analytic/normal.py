@@ -615,13 +615,17 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         try:
             st, F = _newton(st, _Mode(st.P, M), profile, A)
         except _NewtonFailed as exc:
-            pinned = _pin_nearby_corner(st, profile, A)
+            pinned = _pin_nearest(st, profile, A, PIN_DISTANCE * _edge_widths(st.layout))
             if pinned is None:
                 raise _StepFailed(str(exc)) from exc
-            history.append(_Event("pin", float(pinned.layout.edges[0])))
-            st = pinned
+            history.append(_Event("pin", pinned[1]))
+            st = pinned[0]
             continue
-        st = _pin_corners(st, profile)
+        landed = _pin_nearest(st, profile, A, np.full(st.layout.edges.size, 1e-10 * st.ell))
+        if landed is not None:  # a free edge converged onto a corner: re-solve it as singular
+            history.append(_Event("pin", landed[1]))
+            st = landed[0]
+            continue
         sys_ = System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
         ev = _find_event(st, sys_, profile, A)
         if ev is None:
@@ -648,38 +652,32 @@ def _shift_poly(beta: np.ndarray, d: float) -> np.ndarray:
     return np.polynomial.Polynomial(p(np.polynomial.Polynomial([d, 1.0])).coef).coef[: beta.size]
 
 
-def _pin_corners(st: _State, profile: Profile) -> _State:
-    """A free edge sitting on a corner becomes singular there."""
-    e, pinned = st.layout.edges.copy(), st.layout.pinned.copy()
-    for i in np.flatnonzero(~pinned):
-        for c in profile.pin_points:
-            if abs(e[i] - c) < 1e-10 * st.ell:
-                e[i], pinned[i] = c, True
-    if np.array_equal(pinned, st.layout.pinned):
-        return st
-    return _State(Layout(e, pinned), np.zeros(max(pinned.size // 2 - int((~pinned).sum()), 0)),
-                  st.theta, st.P, st.xc, st.ell)
-
-
 PIN_DISTANCE = 0.05  # a free edge this close to a corner (fraction of its zone) may pin there
 
 
-def _pin_nearby_corner(st: _State, profile: Profile, A: float) -> _State | None:
-    """After a failed Newton: the free edge nearest a corner becomes singular at that corner."""
+def _edge_widths(layout: Layout) -> np.ndarray:
+    """Width of the zone each edge belongs to."""
+    return np.repeat(np.diff(layout.edges.reshape(-1, 2), axis=1).ravel(), 2)
+
+
+def _pin_nearest(st: _State, profile: Profile, A: float, limits: np.ndarray
+                 ) -> tuple[_State, float] | None:
+    """The free edge nearest a pin point (corner or ridge), if within its limit, becomes
+    singular there: the new (unsolved) state and the pin position, or None."""
     e, pinned = st.layout.edges.copy(), st.layout.pinned.copy()
-    best, where = None, None
+    best = None
     for i in np.flatnonzero(~pinned):
-        width = e[i - (i % 2) + 1] - e[i - (i % 2)]
         for c in profile.pin_points:
             d = abs(e[i] - c)
-            if d <= PIN_DISTANCE * width and (best is None or d < best[0]):
-                best, where = (d, i), c
+            if d <= limits[i] and (best is None or d < best[0]):
+                best = (d, i, c)
     if best is None:
         return None
-    e[best[1]], pinned[best[1]] = where, True
+    _, i, c = best
+    e[i], pinned[i] = c, True
     new = _fresh_state(Layout(e, pinned), st.theta, st.P)
     new.beta = _beta_for(new, A, st.P)
-    return new
+    return new, float(c)
 
 
 def _continue(st: _State, P_target: float, profile: Profile, A: float,
@@ -825,19 +823,13 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     return out  # type: ignore[return-value]
 
 
-def _fresh_checks(st: _State, sys_: System, profile: Profile) -> dict:
-    xo = _gap_candidates(st, sys_, profile)
-    p = sys_.pressure_inside(_check_points_inside(st.layout.edges, profile=profile,
-                                                  theta=st.theta))
-    return {"min_pressure": float(np.min(p)),
-            "min_gap": float(np.min(deformed_gap(sys_, xo))) if xo.size else 0.0}
-
-
 def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> NormalSolution:
     zl = zone_loads(sys_)
     P_calc, M_calc = sys_.load_and_moment()
     F, _ = _residual(st, _Mode(st.P, None), profile, A)
-    checks = st.checks if st.checks is not None else _fresh_checks(st, sys_, profile)
+    if st.checks is None and _find_event(st, sys_, profile, A) is not None:
+        raise ConvergenceError("the final state is not admissible", {"zones": st.layout.zones()})
+    checks = st.checks
     res = {
         "equations": float(np.max(np.abs(F))) if F.size else 0.0,
         "equilibrium": abs(sum(zl) - st.P) / st.P,
