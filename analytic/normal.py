@@ -141,6 +141,7 @@ class _State:
     ell: float
     jac: np.ndarray | None = None
     checks: dict | None = None
+    F: np.ndarray | None = None  # scaled residuals of the last Newton solve of this state
 
 
 def _free_edges(layout: Layout, mode: _Mode) -> np.ndarray:
@@ -629,6 +630,7 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         sys_ = System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
         ev = _find_event(st, sys_, profile, A)
         if ev is None:
+            st.F = F
             return st, sys_
         history.append(ev)
         st = _apply_event(st, ev, sys_, profile)
@@ -826,7 +828,7 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
 def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> NormalSolution:
     zl = zone_loads(sys_)
     P_calc, M_calc = sys_.load_and_moment()
-    F, _ = _residual(st, _Mode(st.P, None), profile, A)
+    F = st.F if st.F is not None else _residual(st, _Mode(st.P, None), profile, A)[0]
     if st.checks is None and _find_event(st, sys_, profile, A) is not None:
         raise ConvergenceError("the final state is not admissible", {"zones": st.layout.zones()})
     checks = st.checks
