@@ -31,8 +31,9 @@ All coordinates here are shifted by the centre ``xc`` (powers stay well scaled).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 from scipy.special import roots_jacobi
@@ -59,9 +60,11 @@ def mapped_rule(lo: float, hi: float, alpha_lo: float, alpha_hi: float, n: int):
 
 def nodes_for(length: float, clearance: float) -> int:
     """Quadrature size for an interval whose nearest outside singularity is ``clearance`` away."""
-    ratio = length / max(clearance, 1e-300)
-    n = BASE_NODES + 14.0 * np.sqrt(max(ratio, 0.0))
-    return int(min(MAX_NODES, 8 * np.ceil(n / 8)))
+    ratio = float(length) / max(float(clearance), 1e-300)
+    if not ratio < 1e300:
+        return MAX_NODES
+    n = BASE_NODES + 14.0 * math.sqrt(max(ratio, 0.0))
+    return int(min(MAX_NODES, 8 * math.ceil(n / 8)))
 
 
 GRADING = 4.0
@@ -162,37 +165,52 @@ class SQuad:
 
 
 def build_squad(layout: Layout, profile: Profile, xc: float, theta: float) -> SQuad:
-    edges, pinned, eps = layout.edges, layout.pinned, layout.eps
-    s_all, O_all = [], []
-    zones = edges.reshape(-1, 2)
-    for k, (a, b) in enumerate(zones):
+    """Gauss-Jacobi rules on every zone, split at the profile's kinks (edge weights at the ends);
+    ``Omega`` is the weight times the rest of ``omega = 1/W_s`` (one log-sum for all nodes)."""
+    el = layout.edges.tolist()
+    eps = layout.eps
+    clearance = zone_clearances(el)
+    signs = zone_signs(layout)
+    s_parts, w_parts, counts, expo = [], [], [], []
+    for k in range(len(el) // 2):
+        a, b = el[2 * k], el[2 * k + 1]
         cuts = [a, *[q for q in profile.kinks if a < q < b], b]
-        clearance = _zone_clearance(edges, k)
-        d = int(sign_exponent(np.array([0.5 * (a + b)]), edges, pinned)[0])
-        sk = sign_from_d(np.array([d]))[0]
         for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
-            al = -eps[2 * k] if lo == a else 0.0
-            ah = -eps[2 * k + 1] if hi == b else 0.0
-            n = nodes_for(hi - lo, min(clearance, _kink_clearance(lo, hi, a, b)))
+            row = -eps.copy()  # exponents of |s - e_i| left outside the Jacobi weight
+            al, ah = (row[2 * k] if lo == a else 0.0), (row[2 * k + 1] if hi == b else 0.0)
+            row[2 * k] = 0.0 if lo == a else row[2 * k]
+            row[2 * k + 1] = 0.0 if hi == b else row[2 * k + 1]
+            n = nodes_for(hi - lo, min(clearance[k], _kink_clearance(lo, hi, a, b)))
             s, w = mapped_rule(lo, hi, al, ah, n)
-            skip = np.zeros(edges.size, bool)
-            skip[2 * k] = lo == a
-            skip[2 * k + 1] = hi == b
-            rest = sk * w_abs(s, edges, -eps, skip)
-            s_all.append(s)
-            O_all.append(w * rest)
-    s = np.concatenate(s_all)
-    Om = np.concatenate(O_all)
+            s_parts.append(s)
+            w_parts.append(w * signs[k])
+            counts.append(n)
+            expo.append(row)
+    s = np.concatenate(s_parts)
+    logs = np.log(np.abs(s[:, None] - layout.edges[None, :]))
+    rest = np.exp(np.einsum("ij,ij->i", logs, np.repeat(np.array(expo), counts, axis=0)))
+    Om = np.concatenate(w_parts) * rest
     dh = profile.dh0(s) - theta
     return SQuad(s - xc, Om, np.abs(Om), dh)
 
 
-def _zone_clearance(edges: np.ndarray, k: int) -> float:
-    a, b = edges[2 * k], edges[2 * k + 1]
-    others = np.delete(edges, [2 * k, 2 * k + 1])
-    if others.size == 0:
-        return np.inf
-    return float(np.min(np.minimum(np.abs(others - a), np.abs(others - b))))
+def zone_signs(layout: Layout) -> list[float]:
+    """``s_k``: the sign of ``W_s`` on each zone (from d, the edges to the right of its middle)."""
+    d, out = 0, []
+    for i, pin in reversed(list(enumerate(layout.pinned.tolist()))):
+        d += -1 if pin else 1
+        if i % 2 == 1:  # d now counts b_k and everything right of it
+            out.append(1.0 - 2.0 * (((d - (d % 2)) // 2) % 2))
+    return out[::-1]
+
+
+def zone_clearances(edges: list[float]) -> list[float]:
+    """Distance from each zone to the nearest edge of another zone (inf for a single zone);
+    the edges are sorted, so only the neighbouring zones matter."""
+    n = len(edges) // 2
+    return [min(edges[2 * k] - edges[2 * k - 1] if k > 0 else math.inf,
+                edges[2 * k + 2] - edges[2 * k + 1] if k + 1 < n else math.inf)
+            for k in range(n)]
 
 
 def _kink_clearance(lo: float, hi: float, a: float, b: float) -> float:
@@ -222,14 +240,18 @@ class System:
     def e_hat(self) -> np.ndarray:
         return self.layout.edges - self.xc
 
-    def poly_part(self, xh: np.ndarray) -> np.ndarray:
-        """``Poly(x)``: polynomial part of ``1/W`` at infinity (shifted coordinate)."""
+    @cached_property
+    def _poly_coeffs(self) -> np.ndarray | None:
+        """Coefficients (highest first) of ``Poly``, the polynomial part of ``1/W`` at infinity;
+        None when it vanishes (e > n)."""
         lay = self.layout
         deg = lay.n - lay.e
-        if deg < 0:
-            return np.zeros_like(xh)
-        c = series_coeffs(self.e_hat, lay.eps, -1.0, deg)
-        return np.polyval(c, xh) if deg >= 0 else 0.0 * xh
+        return series_coeffs(self.e_hat, lay.eps, -1.0, deg) if deg >= 0 else None
+
+    def poly_part(self, xh: np.ndarray) -> np.ndarray:
+        """``Poly(x)``: polynomial part of ``1/W`` at infinity (shifted coordinate)."""
+        c = self._poly_coeffs
+        return np.zeros_like(xh) if c is None else np.polyval(c, xh)
 
     def T(self, xh: np.ndarray) -> np.ndarray:
         if self.beta.size == 0:
@@ -237,20 +259,28 @@ class System:
         return np.polyval(self.beta[::-1], xh)
 
     def B(self, xh: np.ndarray, H: np.ndarray, dH: np.ndarray | None = None) -> np.ndarray:
-        """``B(x)`` at shifted points ``xh`` with subtraction values ``H`` (same shape)."""
+        """``B(x)`` at shifted points ``xh`` with subtraction values ``H`` (same shape).
+
+        Where a point coincides with a node (closer than 1e-13 relative) the divided difference
+        is replaced by its limit ``dH`` (0 when not given)."""
         sq = self.sq
         xh = np.asarray(xh, float)
-        diff = sq.s[None, :] - xh.reshape(-1, 1)
-        num = sq.dh[None, :] - H.reshape(-1, 1)
+        x, Hr = xh.ravel(), np.asarray(H, float).ravel()
+        diff = sq.s[None, :] - x[:, None]
+        q = sq.dh[None, :] - Hr[:, None]
         with np.errstate(divide="ignore", invalid="ignore"):
-            q = num / diff
-        small = np.abs(diff) < 1e-13 * (1.0 + np.abs(xh.reshape(-1, 1)))
-        if np.any(small):
-            fill = np.zeros_like(xh) if dH is None else dH
-            q = np.where(small, np.broadcast_to(fill.reshape(-1, 1), q.shape), q)
+            q /= diff
+        np.abs(diff, out=diff)
+        if x.size and diff.min() < 1e-13 * (1.0 + np.abs(x).max()):
+            small = diff < 1e-13 * (1.0 + np.abs(x[:, None]))
+            fill = np.zeros_like(x) if dH is None else np.asarray(dH, float).ravel()
+            q = np.where(small, np.broadcast_to(fill[:, None], q.shape), q)
         val = q @ sq.Omega
-        return (val + np.pi * H.ravel() * self.poly_part(xh.ravel()) + self.T(xh.ravel())
-                ).reshape(xh.shape)
+        if self._poly_coeffs is not None:
+            val += np.pi * Hr * np.polyval(self._poly_coeffs, x)
+        if self.beta.size:
+            val += np.polyval(self.beta[::-1], x)
+        return val.reshape(xh.shape)
 
     def W_real(self, x: np.ndarray) -> np.ndarray:
         """Signed real W (outside L) or W_s (inside L) at absolute x."""
@@ -341,6 +371,12 @@ class System:
         pw = sq.s[None, :] ** np.arange(jmax + 1)[:, None]
         return pw @ (sq.dh * sq.Omega), np.abs(pw) @ (np.abs(sq.dh) * sq.absOmega)
 
+    @cached_property
+    def _dh_omega(self) -> tuple[np.ndarray, np.ndarray]:
+        """``h' Omega`` at the nodes and its absolute value (scales of the sums)."""
+        sq = self.sq
+        return sq.dh * sq.Omega, np.abs(sq.dh) * sq.absOmega
+
     def consistency_nodes(self) -> np.ndarray:
         """Centres (shifted) of the ``e - n`` zones whose Lagrange polynomials span the
         consistency conditions: a localised basis keeps the rows independent when the zones are
@@ -352,18 +388,24 @@ class System:
         z = self.e_hat.reshape(-1, 2)
         return np.sort(z[order].mean(1))
 
+    @cached_property
+    def _node_factors(self) -> tuple[np.ndarray, np.ndarray]:
+        """``s - c_j`` at the quadrature nodes for the consistency nodes ``c`` (columns)."""
+        c = self.consistency_nodes()
+        return c, self.sq.s[:, None] - c[None, :]
+
     def consistency(self) -> tuple[np.ndarray, np.ndarray]:
         """Consistency residuals ``int_L L_k(s) h'(s) omega(s) ds`` (paper Eq. 12) in the Lagrange
         basis on :meth:`consistency_nodes`, and the absolute sums used to scale them."""
-        c = self.consistency_nodes()
-        sq = self.sq
-        rows, norms = [], []
-        for k in range(c.size):
-            others = np.delete(c, k)
-            L = np.prod((sq.s[:, None] - others[None, :]) / (c[k] - others[None, :]), axis=1)
-            rows.append(L @ (sq.dh * sq.Omega))
-            norms.append(np.abs(L) @ (np.abs(sq.dh) * sq.absOmega))
-        return np.asarray(rows), np.asarray(norms)
+        c, D = self._node_factors
+        cl = c.tolist()
+        L = np.ones(D.shape)
+        for j in range(len(cl)):
+            for m in range(len(cl)):
+                if m != j:
+                    L[:, j] *= D[:, m] * (1.0 / (cl[j] - cl[m]))
+        f, f_abs = self._dh_omega
+        return f @ L, f_abs @ np.abs(L)
 
     def load(self) -> float:
         """Total load: ``P = (1/A) int_L prod_k (s - c_k) h' omega ds`` for e >= n (the monic
@@ -372,10 +414,9 @@ class System:
         lay = self.layout
         if lay.e < lay.n:
             return float(-self.beta[lay.n - lay.e - 1] / self.A)
-        c = self.consistency_nodes()
-        sq = self.sq
-        poly = np.prod(sq.s[:, None] - c[None, :], axis=1) if c.size else np.ones_like(sq.s)
-        return float(poly @ (sq.dh * sq.Omega) / self.A)
+        _, D = self._node_factors
+        poly = np.prod(D, axis=1) if D.shape[1] else np.ones(D.shape[0])
+        return float(poly @ self._dh_omega[0] / self.A)
 
     def w1(self) -> float:
         lay = self.layout
@@ -398,78 +439,111 @@ class System:
         return float(P), float(Mc + self.xc * P)
 
     # gap integrals -----------------------------------------------------------------------------
+    @cached_property
+    def edge_pieces(self) -> list[Piece]:
+        """Profile piece on the zone side of each edge (its continuation is used near the edge)."""
+        el = self.layout.edges.tolist()
+        probes = np.array([x + (1.0 if i % 2 == 0 else -1.0) * 1e-9
+                           * max(self.profile.scale, abs(x), 1e-300) for i, x in enumerate(el)])
+        ks = self.profile.piece_index(probes).tolist()
+        return [self.profile.pieces[max(k, 0)] for k in ks]
+
     def edge_piece(self, i: int) -> Piece:
-        """Profile piece on the zone side of edge i (its continuation is used near the edge)."""
-        x = self.layout.edges[i]
-        side = 1.0 if i % 2 == 0 else -1.0
-        probe = x + side * 1e-9 * max(self.profile.scale, abs(x), 1e-300)
-        k = int(self.profile.piece_index(np.array([probe]))[0])
-        return self.profile.pieces[max(k, 0)]
+        return self.edge_pieces[i]
+
+    @cached_property
+    def h_edges(self) -> np.ndarray:
+        """``h = h0 - theta x`` at every edge, from the edge's own piece."""
+        el = self.layout.edges.tolist()
+        return np.array([float(pc.h(np.array([x]))[0]) - self.theta * x
+                         for pc, x in zip(self.edge_pieces, el, strict=True)])
+
+    def h_at_edge(self, i: int) -> float:
+        return float(self.h_edges[i])
+
+    @cached_property
+    def _edge_clearances(self) -> list[float]:
+        """Distance from each edge to the nearest other edge."""
+        el = self.layout.edges.tolist()
+        return [min([abs(x - y) for j, y in enumerate(el) if j != i], default=math.inf)
+                for i, x in enumerate(el)]
 
     def wprime_integral(self, i: int, x_to: np.ndarray) -> np.ndarray:
         """``int_{edge_i}^{x_to} w'(t) dt`` for points ``x_to`` on the outer side of edge i."""
-        x0 = float(self.layout.edges[i])
         x_to = np.atleast_1d(np.asarray(x_to, float))
-        pc = self.edge_piece(i)
-        direction = np.sign(x_to - x0)
-        reach = pc.reach[1] if i % 2 == 1 else pc.reach[0]
-        lim = 0.5 * abs(reach - x0) if np.isfinite(reach) else np.inf
-        near_len = np.minimum(np.abs(x_to - x0), lim)
-        total = self._near_edge(i, pc, near_len, direction)
-        far = np.abs(x_to - x0) > near_len * (1 + 1e-14)
-        if np.any(far):
-            start = x0 + direction[far] * near_len[far]
-            total[far] += self._plain_segment(start, x_to[far])
-        return total
+        return self.wprime_integrals(np.full(x_to.size, i), x_to)
 
-    def _near_edge(self, i: int, pc: Piece, length: np.ndarray, direction: np.ndarray):
-        """``int`` of w' over ``[x0, x0 + dir*length]`` with the edge piece's continuation.
+    def wprime_integrals(self, idx: np.ndarray, x_to: np.ndarray) -> np.ndarray:
+        """``int_{edge idx[j]}^{x_to[j]} w'(t) dt`` for every j, with one evaluation of B.
 
-        All targets share one evaluation of B: their graded rules are concatenated and the
-        weighted values summed per target.
+        Near its edge (up to half-way to the end of the edge piece's continuation) an integral
+        uses a rule graded towards the edge, with the edge factor of W in the weight and the
+        piece's continuation as the subtraction value; beyond, plain Gauss-Legendre segments.
         """
+        parts = [self._near_rule(int(i), float(xt)) for i, xt in zip(idx, x_to, strict=True)]
+        parts += [self._far_rule(int(i), float(xt)) for i, xt in zip(idx, x_to, strict=True)]
+        x = np.concatenate([pt[0] for pt in parts])
+        if x.size == 0:
+            return np.zeros(len(idx))
+        w, H, dH = (np.concatenate([pt[k] for pt in parts]) for k in (1, 2, 3))
+        counts = [pt[0].size for pt in parts]
+        own = np.repeat([pt[4] for pt in parts], counts)
+        logs = np.log(np.abs(x[:, None] - self.layout.edges[None, :]))
+        rows = np.flatnonzero(own >= 0)
+        logs[rows, own[rows]] = 0.0  # the edge's own factor is in the graded rule's weight
+        lay = self.layout
+        sign = sign_from_d((lay.edges[None, :] > x[:, None]) @ np.where(lay.pinned, -1, 1))
+        vals = w * sign * np.exp(logs @ lay.eps) * self.B(x - self.xc, H, dH) / np.pi
+        sums = np.bincount(np.repeat(np.arange(len(parts)), counts), vals, len(parts))
+        m = len(idx)
+        return sums[:m] + sums[m:] + np.array([pt[5] for pt in parts[:m]])
+
+    def _near_extent(self, i: int, x_to: float) -> tuple[float, float, Piece]:
+        """Length of the graded part towards ``x_to``, its direction, and the edge piece."""
         x0 = float(self.layout.edges[i])
-        eps_i = float(self.layout.eps[i])
-        clearance = float(np.min(np.abs(np.delete(self.layout.edges, i) - x0)))
-        out = np.zeros(length.shape)
-        todo = np.flatnonzero(length > 0)
-        if todo.size == 0:
-            return out
-        rules = [graded_rule(float(length[j]), clearance, eps_i) for j in todo]
-        counts = np.array([r[0].size for r in rules])
-        sgn = np.repeat(direction[todo], counts)
-        x = x0 + sgn * np.concatenate([r[0] for r in rules])
-        w = np.concatenate([r[1] for r in rules])
-        skip = np.zeros(self.layout.edges.size, bool)
-        skip[i] = True
-        rest = (sign_from_d(sign_exponent(x, self.layout.edges, self.layout.pinned))
-                * w_abs(x, self.layout.edges, self.layout.eps, skip))
-        Bv = self.B(x - self.xc, pc.dh(x) - self.theta, pc.d2h(x))
-        sums = np.add.reduceat(w * rest * Bv, np.concatenate([[0], np.cumsum(counts)[:-1]]))
-        x_end = x0 + direction[todo] * length[todo]
-        dh_int = pc.h(x_end) - pc.h(np.full_like(x_end, x0)) - self.theta * (x_end - x0)
-        out[todo] = direction[todo] * sums / np.pi - dh_int
-        return out
+        pc = self.edge_pieces[i]
+        reach = pc.reach[1] if i % 2 == 1 else pc.reach[0]
+        lim = 0.5 * abs(reach - x0) if math.isfinite(reach) else math.inf
+        return min(abs(x_to - x0), lim), (1.0 if x_to >= x0 else -1.0), pc
 
-    def _plain_segment(self, x_from: np.ndarray, x_to: np.ndarray, n: int = 48) -> np.ndarray:
-        """``int`` of w' over regular segments far from the edges (no subtraction needed)."""
-        t, w = jacobi_rule(n, 0.0, 0.0)
-        half = 0.5 * (x_to - x_from)[:, None]
-        x = 0.5 * (x_to + x_from)[:, None] + half * t[None, :]
-        Wv = self.W_real(x.ravel()).reshape(x.shape)
-        zero = np.zeros(x.size)
-        Bv = self.B(x.ravel() - self.xc, zero).reshape(x.shape)
-        return np.sum(w[None, :] * half * Wv * Bv, axis=1) / np.pi
+    def _near_rule(self, i: int, x_to: float):
+        """Points, weights (direction included), H, dH, own edge, and ``-int h'`` of the graded
+        part of one integral."""
+        x0 = float(self.layout.edges[i])
+        length, direction, pc = self._near_extent(i, x_to)
+        if length <= 0:
+            empty = np.zeros(0)
+            return empty, empty, empty, empty, i, 0.0
+        t, w = graded_rule(length, self._edge_clearances[i], float(self.layout.eps[i]))
+        x = x0 + direction * t
+        x_end = x0 + direction * length
+        dh_int = float(pc.h(np.array([x_end]))[0]) - self.theta * x_end - self.h_edges[i]
+        return x, direction * w, pc.dh(x) - self.theta, pc.d2h(x), i, -dh_int
 
-    def h_at_edge(self, i: int) -> float:
-        x = float(self.layout.edges[i])
-        return float(self.edge_piece(i).h(np.array([x]))[0]) - self.theta * x
+    def _far_rule(self, i: int, x_to: float, n: int = 48):
+        """Gauss-Legendre points and weights of the plain part (beyond the graded one), H = 0."""
+        x0 = float(self.layout.edges[i])
+        length, direction, _ = self._near_extent(i, x_to)
+        if abs(x_to - x0) <= length * (1 + 1e-14):
+            empty = np.zeros(0)
+            return empty, empty, empty, empty, -1, 0.0
+        x, w = mapped_rule(x0 + direction * length, x_to, 0.0, 0.0, n) if direction > 0 else \
+            mapped_rule(x_to, x0 + direction * length, 0.0, 0.0, n)
+        zero = np.zeros(n)
+        return x, direction * w, zero, zero, -1, 0.0
+
+    def interconnections(self) -> np.ndarray:
+        """Rigid interconnection residuals between neighbouring zones (paper Eq. 17), all gaps."""
+        n = self.layout.n
+        if n < 2:
+            return np.zeros(0)
+        e = self.layout.edges
+        ib = 2 * np.arange(n - 1) + 1
+        ia = ib + 1
+        mid = 0.5 * (e[ib] + e[ia])
+        w = self.wprime_integrals(np.concatenate([ib, ia]), np.concatenate([mid, mid]))
+        return self.h_edges[ia] - self.h_edges[ib] + w[: n - 1] - w[n - 1:]
 
     def interconnection(self, m: int) -> float:
         """Rigid interconnection residual between zones m and m+1 (paper Eq. 17)."""
-        ib, ia = 2 * m + 1, 2 * m + 2
-        b, a = self.layout.edges[ib], self.layout.edges[ia]
-        mid = np.array([0.5 * (a + b)])
-        right = self.wprime_integral(ib, mid)[0]
-        left = self.wprime_integral(ia, mid)[0]
-        return self.h_at_edge(ia) - self.h_at_edge(ib) + right - left
+        return float(self.interconnections()[m])

@@ -100,12 +100,11 @@ def deformed_gap(sys_: System, x: np.ndarray) -> np.ndarray:
     inside = _inside(x, edges) | np.isin(x, edges)
     h = sys_.profile.h0(x) - sys_.theta * x
     nearest = _nearest_outer_edge(x, edges)
-    for i in np.unique(nearest[~inside]):
-        m = (~inside) & (nearest == i)
-        finite = m & np.isfinite(h)
-        out[m & ~np.isfinite(h)] = np.inf
-        if np.any(finite):
-            out[finite] = h[finite] - sys_.h_at_edge(i) + sys_.wprime_integral(i, x[finite])
+    out[~inside & ~np.isfinite(h)] = np.inf
+    todo = ~inside & np.isfinite(h)
+    if np.any(todo):
+        i = nearest[todo]
+        out[todo] = h[todo] - sys_.h_edges[i] + sys_.wprime_integrals(i, x[todo])
     return out
 
 
@@ -189,7 +188,7 @@ def _residual(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[np.n
         rows.extend(mu / (norm + 1e-300))
     if mode.P is not None and e >= n:
         rows.append(sys_.load() / mode.P - 1.0)
-    rows.extend(sys_.interconnection(m) / g_scale for m in range(n - 1))
+    rows.extend(sys_.interconnections() / g_scale)
     if mode.M is not None:
         rows.append((sys_.load_and_moment()[1] - mode.M) / (P_ref * st.ell))
     return np.asarray(rows, float), sys_

@@ -24,6 +24,7 @@ from analytic.errors import InputError
 
 Func = Callable[[np.ndarray], np.ndarray]
 INF = float("inf")
+MINIMA_MEMO_SIZE = 256  # rotations remembered per profile (a moment solve visits ~50)
 
 
 @dataclass(frozen=True)
@@ -70,17 +71,31 @@ class Profile:
 
     # -- evaluation -------------------------------------------------------------------------
     def piece_index(self, x: np.ndarray) -> np.ndarray:
-        """Index of the piece holding each x (-1 outside the support)."""
+        """Index of the piece holding each x (-1 outside the support; the left piece at a
+        shared end)."""
         x = np.asarray(x, dtype=float)
-        idx = np.full(x.shape, -1, dtype=int)
-        for k, pc in enumerate(self.pieces):
-            idx[(x >= pc.lo) & (x <= pc.hi) & (idx < 0)] = k
-        return idx
+        los, his = self._bounds
+        k = np.minimum(np.searchsorted(his, x, side="left"), his.size - 1)
+        return np.where((x >= los[k]) & (x <= his[k]), k, -1)
+
+    @cached_property
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return (np.array([pc.lo for pc in self.pieces]), np.array([pc.hi for pc in self.pieces]))
+
+    @cached_property
+    def _global_piece(self) -> Piece | None:
+        """The only piece when it covers the whole real line (cylinder, bi-quadratic)."""
+        pc = self.pieces[0]
+        return pc if len(self.pieces) == 1 and pc.lo == -INF and pc.hi == INF else None
 
     def _eval(self, x: np.ndarray, attr: str, outside: float) -> np.ndarray:
         x = np.asarray(x, dtype=float)
-        out = np.full(x.shape, outside)
+        if self._global_piece is not None:
+            return np.asarray(getattr(self._global_piece, attr)(x), float)
         idx = self.piece_index(x)
+        if idx.size and idx.min() == idx.max() >= 0:  # one piece holds every x: no masking
+            return np.asarray(getattr(self.pieces[int(idx.flat[0])], attr)(x), float)
+        out = np.full(x.shape, outside)
         for k, pc in enumerate(self.pieces):
             m = idx == k
             if np.any(m):
@@ -130,11 +145,21 @@ class Profile:
         """Local minima of ``h0(x) - theta x`` as ``(x_lo, x_hi, value)``.
 
         A flat piece at ``theta == 0`` gives an interval; every other minimum is a point.
+        Memoised per theta (the solver asks for the same rotation many times).
         """
-        found: list[tuple[float, float, float]] = []
-        for k, pc in enumerate(self.pieces):
-            found.extend(_piece_minima(self, k, pc, theta))
-        return _dedupe_minima(found, 1e-9 * self.scale)
+        key = float(theta)
+        if key not in self._minima_memo:
+            found: list[tuple[float, float, float]] = []
+            for k, pc in enumerate(self.pieces):
+                found.extend(_piece_minima(self, k, pc, key))
+            if len(self._minima_memo) >= MINIMA_MEMO_SIZE:
+                self._minima_memo.clear()
+            self._minima_memo[key] = tuple(_dedupe_minima(found, 1e-9 * self.scale))
+        return list(self._minima_memo[key])
+
+    @cached_property
+    def _minima_memo(self) -> dict[float, tuple[tuple[float, float, float], ...]]:
+        return {}
 
     def with_lift(self, lift: float) -> Profile:
         """The profile raised by ``lift`` (for union members)."""
@@ -208,9 +233,23 @@ def _check_positive(name: str, value: float) -> float:
 def _poly_piece(coeffs: Sequence[float], lo: float, hi: float, flat: bool = False) -> Piece:
     """Piece from a polynomial (highest power first); its continuation is global."""
     c = np.poly1d(coeffs)
-    d1, d2 = c.deriv(1), c.deriv(2)
-    return Piece(lo, hi, lambda x: c(x) + 0.0 * x, lambda x: d1(x) + 0.0 * x,
-                 lambda x: d2(x) + 0.0 * x, (-INF, INF), flat)
+    h, d1, d2 = (_horner(q.coeffs) for q in (c, c.deriv(1), c.deriv(2)))
+    return Piece(lo, hi, h, d1, d2, (-INF, INF), flat)
+
+
+def _horner(coeffs: Sequence[float]) -> Func:
+    """Vectorised polynomial (highest power first) by Horner's rule, in place (hot path)."""
+    head, *rest = (float(v) for v in coeffs)
+
+    def value(x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        y = np.full(x.shape, head)
+        for v in rest:
+            y *= x
+            y += v
+        return y
+
+    return value
 
 
 def _line(slope: float, x0: float, lo: float, hi: float) -> Piece:
