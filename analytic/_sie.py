@@ -32,6 +32,7 @@ All coordinates here are shifted by the centre ``xc`` (powers stay well scaled).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
@@ -258,11 +259,12 @@ class System:
             return np.zeros_like(xh)
         return np.polyval(self.beta[::-1], xh)
 
-    def B(self, xh: np.ndarray, H: np.ndarray, dH: np.ndarray | None = None) -> np.ndarray:
+    def B(self, xh: np.ndarray, H: np.ndarray,
+          dH: np.ndarray | Callable[[], np.ndarray] | None = None) -> np.ndarray:
         """``B(x)`` at shifted points ``xh`` with subtraction values ``H`` (same shape).
 
         Where a point coincides with a node (closer than 1e-13 relative) the divided difference
-        is replaced by its limit ``dH`` (0 when not given)."""
+        is replaced by its limit ``dH`` (an array, a callable giving it, or None for 0)."""
         sq = self.sq
         xh = np.asarray(xh, float)
         x, Hr = xh.ravel(), np.asarray(H, float).ravel()
@@ -273,7 +275,8 @@ class System:
         np.abs(diff, out=diff)
         if x.size and diff.min() < 1e-13 * (1.0 + np.abs(x).max()):
             small = diff < 1e-13 * (1.0 + np.abs(x[:, None]))
-            fill = np.zeros_like(x) if dH is None else np.asarray(dH, float).ravel()
+            fill = np.zeros_like(x) if dH is None else np.asarray(
+                dH() if callable(dH) else dH, float).ravel()
             q = np.where(small, np.broadcast_to(fill[:, None], q.shape), q)
         val = q @ sq.Omega
         if self._poly_coeffs is not None:
@@ -292,7 +295,7 @@ class System:
         """Deformed-gap slope ``g'(x) = W(x) B(x)/pi`` at absolute x outside the zones."""
         x = np.atleast_1d(np.asarray(x, float))
         H = self.profile.dh0(x) - self.theta
-        return self.W_real(x) * self.B(x - self.xc, H, self.profile.d2h0(x)) / np.pi
+        return self.W_real(x) * self.B(x - self.xc, H, lambda: self.profile.d2h0(x)) / np.pi
 
     def pressure_inside(self, x: np.ndarray) -> np.ndarray:
         """p at absolute x known to lie inside the zones.
@@ -474,29 +477,44 @@ class System:
         return self.wprime_integrals(np.full(x_to.size, i), x_to)
 
     def wprime_integrals(self, idx: np.ndarray, x_to: np.ndarray) -> np.ndarray:
-        """``int_{edge idx[j]}^{x_to[j]} w'(t) dt`` for every j, with one evaluation of B.
+        """``int_{edge idx[j]}^{x_to[j]} w'(t) dt`` for every j, with one evaluation of B."""
+        S, ends = self._gap_sums(idx, x_to)
+        return S - self._h_at(ends) + self.h_edges[np.asarray(idx, int)]
+
+    def _gap_sums(self, idx: np.ndarray, x_to: np.ndarray) -> tuple[np.ndarray, list]:
+        """``int g'`` from edge ``idx[j]`` to ``x_to[j]`` and the (piece, end) of its graded part.
 
         Near its edge (up to half-way to the end of the edge piece's continuation) an integral
         uses a rule graded towards the edge, with the edge factor of W in the weight and the
-        piece's continuation as the subtraction value; beyond, plain Gauss-Legendre segments.
+        piece's continuation as the subtraction value (so ``int w' = S - [h]`` over that part);
+        beyond, plain Gauss-Legendre segments.  All points share one evaluation of B.
         """
-        parts = [self._near_rule(int(i), float(xt)) for i, xt in zip(idx, x_to, strict=True)]
-        parts += [self._far_rule(int(i), float(xt)) for i, xt in zip(idx, x_to, strict=True)]
-        x = np.concatenate([pt[0] for pt in parts])
-        if x.size == 0:
-            return np.zeros(len(idx))
-        w, H, dH = (np.concatenate([pt[k] for pt in parts]) for k in (1, 2, 3))
+        pairs = list(zip(np.asarray(idx).tolist(), np.asarray(x_to, float).tolist(), strict=True))
+        near = [self._near_rule(i, xt) for i, xt in pairs]
+        parts = [pt[:4] for pt in near] + [self._far_rule(i, xt) for i, xt in pairs]
+        ends = [(pt[4], pt[5]) for pt in near]
         counts = [pt[0].size for pt in parts]
-        own = np.repeat([pt[4] for pt in parts], counts)
+        if sum(counts) == 0:
+            return np.zeros(len(pairs)), ends
+        x, w, H = (np.concatenate([pt[k] for pt in parts]) for k in (0, 1, 2))
+        own = np.repeat([pt[3] for pt in parts], counts)
         logs = np.log(np.abs(x[:, None] - self.layout.edges[None, :]))
         rows = np.flatnonzero(own >= 0)
         logs[rows, own[rows]] = 0.0  # the edge's own factor is in the graded rule's weight
         lay = self.layout
         sign = sign_from_d((lay.edges[None, :] > x[:, None]) @ np.where(lay.pinned, -1, 1))
-        vals = w * sign * np.exp(logs @ lay.eps) * self.B(x - self.xc, H, dH) / np.pi
+
+        def curvature() -> np.ndarray:  # only needed where a point meets a node
+            return np.concatenate([near[j][4].d2h(pt[0]) if j < len(near) else 0.0 * pt[0]
+                                   for j, pt in enumerate(parts)])
+
+        vals = w * sign * np.exp(logs @ lay.eps) * self.B(x - self.xc, H, curvature) / np.pi
         sums = np.bincount(np.repeat(np.arange(len(parts)), counts), vals, len(parts))
-        m = len(idx)
-        return sums[:m] + sums[m:] + np.array([pt[5] for pt in parts[:m]])
+        return sums[: len(pairs)] + sums[len(pairs):], ends
+
+    def _h_at(self, ends: list) -> np.ndarray:
+        """``h = h0 - theta x`` at the end of each graded part, from that part's piece."""
+        return np.array([float(pc.h(np.array([x]))[0]) - self.theta * x for pc, x in ends])
 
     def _near_extent(self, i: int, x_to: float) -> tuple[float, float, Piece]:
         """Length of the graded part towards ``x_to``, its direction, and the edge piece."""
@@ -507,18 +525,17 @@ class System:
         return min(abs(x_to - x0), lim), (1.0 if x_to >= x0 else -1.0), pc
 
     def _near_rule(self, i: int, x_to: float):
-        """Points, weights (direction included), H, dH, own edge, and ``-int h'`` of the graded
-        part of one integral."""
+        """Points, weights (direction included), H and own edge of the graded part of one
+        integral, with its piece and end."""
         x0 = float(self.layout.edges[i])
         length, direction, pc = self._near_extent(i, x_to)
         if length <= 0:
             empty = np.zeros(0)
-            return empty, empty, empty, empty, i, 0.0
+            return empty, empty, empty, i, pc, x0
         t, w = graded_rule(length, self._edge_clearances[i], float(self.layout.eps[i]))
         x = x0 + direction * t
-        x_end = x0 + direction * length
-        dh_int = float(pc.h(np.array([x_end]))[0]) - self.theta * x_end - self.h_edges[i]
-        return x, direction * w, pc.dh(x) - self.theta, pc.d2h(x), i, -dh_int
+        x_end = x_to if length == abs(x_to - x0) else x0 + direction * length
+        return x, direction * w, pc.dh(x) - self.theta, i, pc, x_end
 
     def _far_rule(self, i: int, x_to: float, n: int = 48):
         """Gauss-Legendre points and weights of the plain part (beyond the graded one), H = 0."""
@@ -526,14 +543,16 @@ class System:
         length, direction, _ = self._near_extent(i, x_to)
         if abs(x_to - x0) <= length * (1 + 1e-14):
             empty = np.zeros(0)
-            return empty, empty, empty, empty, -1, 0.0
+            return empty, empty, empty, -1
         x, w = mapped_rule(x0 + direction * length, x_to, 0.0, 0.0, n) if direction > 0 else \
             mapped_rule(x_to, x0 + direction * length, 0.0, 0.0, n)
-        zero = np.zeros(n)
-        return x, direction * w, zero, zero, -1, 0.0
+        return x, direction * w, np.zeros(n), -1
 
     def interconnections(self) -> np.ndarray:
-        """Rigid interconnection residuals between neighbouring zones (paper Eq. 17), all gaps."""
+        """Rigid interconnection residuals between neighbouring zones (paper Eq. 17), all gaps:
+        ``h(a) - h(b) + int_b^mid w' - int_a^mid w' = S_b - S_a + [h]`` where ``[h]``, the jump
+        of h between the ends of the two graded parts, vanishes when both reach the midpoint on
+        the same piece."""
         n = self.layout.n
         if n < 2:
             return np.zeros(0)
@@ -541,8 +560,11 @@ class System:
         ib = 2 * np.arange(n - 1) + 1
         ia = ib + 1
         mid = 0.5 * (e[ib] + e[ia])
-        w = self.wprime_integrals(np.concatenate([ib, ia]), np.concatenate([mid, mid]))
-        return self.h_edges[ia] - self.h_edges[ib] + w[: n - 1] - w[n - 1:]
+        S, ends = self._gap_sums(np.concatenate([ib, ia]), np.concatenate([mid, mid]))
+        jump = np.array([0.0 if (pb is pa and xb == xa) else self._h_at([(pa, xa), (pb, xb)])
+                         @ np.array([1.0, -1.0]) for (pb, xb), (pa, xa)
+                         in zip(ends[: n - 1], ends[n - 1:], strict=True)])
+        return S[: n - 1] - S[n - 1:] + jump
 
     def interconnection(self, m: int) -> float:
         """Rigid interconnection residual between zones m and m+1 (paper Eq. 17)."""

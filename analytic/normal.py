@@ -9,6 +9,7 @@ admissible (zones appear, merge, split; singular edges pin at corners or release
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -195,17 +196,21 @@ def _residual(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[np.n
 
 
 def _feasible(st: _State, profile: Profile) -> bool:
-    e = st.layout.edges
-    if not np.all(np.isfinite(e)) or np.any(np.diff(e) <= 1e-14 * st.ell):
+    """Edges finite, strictly increasing, inside the support, free edges where h0 is finite,
+    and no zone spanning a ridge (scalar checks: this runs at every trial point)."""
+    e = st.layout.edges.tolist()
+    tol = 1e-14 * st.ell
+    if not all(math.isfinite(v) for v in e) or \
+            any(b - a <= tol for a, b in zip(e, e[1:], strict=False)):
         return False
     lo, hi = profile.support
-    if e[0] < lo - 1e-14 * st.ell or e[-1] > hi + 1e-14 * st.ell:
+    if e[0] < lo - tol or e[-1] > hi + tol:
         return False
-    inner = profile.h0(e[~st.layout.pinned])
-    if not np.all(np.isfinite(inner)):
-        return False
-    z = e.reshape(-1, 2)
-    return not any(np.any((z[:, 0] < q) & (q < z[:, 1])) for q in profile.ridges)
+    if profile.pieces_have_gaps:
+        inner = profile.h0(st.layout.edges[~st.layout.pinned])
+        if not np.all(np.isfinite(inner)):
+            return False
+    return not any(a < q < b for q in profile.ridges for a, b in zip(e[::2], e[1::2], strict=True))
 
 
 class _NewtonFailed(Exception):
@@ -433,10 +438,11 @@ def _gap_candidates(st: _State, sys_: System, profile: Profile) -> np.ndarray:
     cands = [np.asarray([0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
                         + list(profile.pin_points) + list(profile.kinks), float)]
     lo, hi = profile.support
-    for x in runs:
-        x = x[(x >= lo) & (x <= hi) & np.isfinite(profile.h0(x))]
-        if x.size:
-            cands.append(_slope_minima(x, sys_.gap_slope(x)))
+    runs = [x[(x >= lo) & (x <= hi)] for x in runs]
+    if profile.pieces_have_gaps:
+        runs = [x[np.isfinite(profile.h0(x))] for x in runs]
+    slopes = np.split(sys_.gap_slope(np.concatenate(runs)), np.cumsum([x.size for x in runs])[:-1])
+    cands += [_slope_minima(x, gp) for x, gp in zip(runs, slopes, strict=True) if x.size]
     x = np.concatenate(cands)
     x = x[(x >= lo) & (x <= hi)]
     return x[~_inside(x, e) & ~np.isin(x, e)]
@@ -859,22 +865,24 @@ def zone_loads(sys_: System) -> list[float]:
 
 
 def _zone_contour_integrals(sys_: System, power: int) -> list[complex]:
+    """``-oint_{C_k} Phi z^power dz`` for every zone k (one evaluation of Phi for all ellipses)."""
     lay = sys_.layout
-    e = lay.edges
+    e = lay.edges.tolist()
     t = 2 * np.pi * np.arange(CONTOUR_NODES) / CONTOUR_NODES
-    out = []
+    cos, sin = np.cos(t), np.sin(t)
+    zs, dzs = [], []
     for k in range(lay.n):
         a, b = e[2 * k], e[2 * k + 1]
         left = a - e[2 * k - 1] if k > 0 else b - a
         right = e[2 * k + 2] - b if k + 1 < lay.n else b - a
         c, rx = 0.5 * (a + b), 0.5 * (b - a)
         dx = 0.5 * min(left, right, b - a)
-        ry = np.sqrt((rx + dx) ** 2 - rx**2) if dx > 0 else rx
-        z = c + (rx + dx) * np.cos(t) + 1j * ry * np.sin(t)
-        dz = (-(rx + dx) * np.sin(t) + 1j * ry * np.cos(t)) * (2 * np.pi / CONTOUR_NODES)
-        phi = _phi(sys_, z)
-        out.append(-np.sum(phi * z**power * dz))
-    return out
+        ry = math.sqrt((rx + dx) ** 2 - rx**2) if dx > 0 else rx
+        zs.append(c + (rx + dx) * cos + 1j * ry * sin)
+        dzs.append((-(rx + dx) * sin + 1j * ry * cos) * (2 * np.pi / CONTOUR_NODES))
+    z, dz = np.concatenate(zs), np.concatenate(dzs)
+    terms = (_phi(sys_, z) * z**power * dz).reshape(lay.n, CONTOUR_NODES)
+    return list(-terms.sum(1))
 
 
 def _phi(sys_: System, z: np.ndarray) -> np.ndarray:

@@ -83,6 +83,11 @@ class Profile:
         return (np.array([pc.lo for pc in self.pieces]), np.array([pc.hi for pc in self.pieces]))
 
     @cached_property
+    def pieces_have_gaps(self) -> bool:
+        """True when h0 is +inf somewhere inside the support (pieces do not touch)."""
+        return any(a.hi != b.lo for a, b in zip(self.pieces, self.pieces[1:], strict=False))
+
+    @cached_property
     def _global_piece(self) -> Piece | None:
         """The only piece when it covers the whole real line (cylinder, bi-quadratic)."""
         pc = self.pieces[0]
