@@ -24,6 +24,7 @@ from analytic.profiles import Profile
 NEWTON_TOL = 1e-13          # scaled residual; edges then agree to ~1e-12 relative
 NEWTON_MAXIT = 40
 FLOOR_TOL = 1e-10          # accepted when rounding stalls Newton (zones ~1e-6 of the span)
+REFRESH_RATIO = 0.3         # a reused Jacobian gaining less than this per step is refreshed
 FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
 ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
 MAX_TOPOLOGY_CHANGES = 12
@@ -246,7 +247,7 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
                 continue
             raise _NewtonFailed("singular Jacobian", {"residual": norm, "iteration": it}) from exc
         trial, zt, Ft, nt = _line_search(st, z, dz, norm, mode, profile, A)
-        if nt > 0.3 * norm and not fresh:
+        if nt > REFRESH_RATIO * norm and not fresh:
             J = None  # stale Jacobian: refresh and retry from the same point
             continue
         if nt > 0.5 * norm and norm < FLOOR_TOL:
@@ -594,13 +595,21 @@ class _StepFailed(Exception):
     pass
 
 
-def _predict(st: _State, prev: _State | None, P_next: float, profile: Profile) -> _State:
+def _predict(st: _State, prev: tuple[_State, ...], P_next: float, profile: Profile) -> _State:
+    """Edges at P_next extrapolated in log P through the current state and up to two earlier
+    states of the same topology (up to cubic when four are at hand); a square-root widening of
+    every zone when there is no history."""
     edges = st.layout.edges.copy()
     free = ~st.layout.pinned
-    if prev is not None and prev.layout.edges.shape == edges.shape and \
-            np.array_equal(prev.layout.pinned, st.layout.pinned) and prev.P != st.P:
-        r = np.log(P_next / st.P) / np.log(st.P / prev.P)
-        guess = edges + r * (edges - prev.layout.edges)
+    same = [q for q in prev if q.layout.edges.shape == edges.shape
+            and np.array_equal(q.layout.pinned, st.layout.pinned) and q.P != st.P]
+    if same:
+        pts = [st, *same[:2]]
+        u = [math.log(q.P) for q in pts]
+        if len(set(u)) < len(u):
+            pts, u = pts[:2], u[:2]
+        guess = sum(_lagrange_weight(u, j, math.log(P_next)) * q.layout.edges
+                    for j, q in enumerate(pts))
     else:
         z = edges.reshape(-1, 2)
         mid = z.mean(1, keepdims=True)
@@ -612,6 +621,15 @@ def _predict(st: _State, prev: _State | None, P_next: float, profile: Profile) -
     if np.any(np.diff(edges) <= 0) or not _feasible(new, profile):
         new = _State(st.layout, beta, st.theta, P_next, st.xc, st.ell, st.jac)
     return new
+
+
+def _lagrange_weight(u: list[float], j: int, at: float) -> float:
+    """Weight of node j in the Lagrange interpolant through the nodes u, evaluated at ``at``."""
+    w = 1.0
+    for m, um in enumerate(u):
+        if m != j:
+            w *= (at - um) / (u[j] - um)
+    return w
 
 
 def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[_State, System]:
@@ -688,7 +706,7 @@ def _pin_nearest(st: _State, profile: Profile, A: float, limits: np.ndarray
 
 
 def _continue(st: _State, P_target: float, profile: Profile, A: float,
-              prev: _State | None = None) -> tuple[_State, System, _State | None]:
+              prev: tuple[_State, ...] = ()) -> tuple[_State, System, tuple[_State, ...]]:
     ratio = 4.0
     sys_ = None
     guard = 0
@@ -703,7 +721,7 @@ def _continue(st: _State, P_target: float, profile: Profile, A: float,
         except _StepFailed as exc:
             merged = _try_merge(st, P_next, profile, A)
             if merged is not None:
-                prev, (st, sys_) = None, merged
+                prev, (st, sys_) = (), merged
                 if P_next == P_target:
                     return st, sys_, prev
                 continue
@@ -713,7 +731,7 @@ def _continue(st: _State, P_target: float, profile: Profile, A: float,
                                        {"P_reached": st.P, "P_target": P_target,
                                         "zones": st.layout.zones()}) from exc
             continue
-        prev, st = st, new
+        prev, st = (st, *prev[:2]), new
         if P_next == P_target:
             return st, sys_, prev
         ratio = min(ratio * ratio, 16.0)
@@ -823,7 +841,7 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     th = 0.0 if theta is None else float(theta)
     mode = "vertical" if theta is None else "fixed-rotation"
     st, _ = _solve_fixed(profile, float(loads[order[0]]), A, th)
-    prev = None
+    prev: tuple[_State, ...] = ()
     for i in order:
         st, sys_, prev = _continue(st, float(loads[i]), profile, A, prev)
         out[i] = _finish(st, sys_, profile, A, mode)
@@ -888,9 +906,12 @@ def _zone_contour_integrals(sys_: System, power: int) -> list[complex]:
 def _phi(sys_: System, z: np.ndarray) -> np.ndarray:
     """``Phi(z) = W(z) Psi(z)`` off the real axis (principal branches; analytic off L)."""
     lay = sys_.layout
-    W = np.prod(np.sqrt(z[:, None] - lay.edges[None, :]) ** (2 * lay.eps[None, :]), axis=1)
+    roots = np.sqrt(z[:, None] - lay.edges[None, :])
+    W = np.prod(np.where(lay.pinned[None, :], 1.0 / roots, roots), axis=1)
     sq = sys_.sq
     zh = z - sys_.xc
-    cauchy = (sq.dh * sq.Omega)[None, :] / (sq.s[None, :] - zh[:, None])
+    kernel = sq.s[None, :] - zh[:, None]
+    np.reciprocal(kernel, out=kernel)  # in place: a fresh complex reciprocal is 4x slower
+    cauchy = kernel @ (sq.dh * sq.Omega)
     T = np.polyval(sys_.beta[::-1], zh) if sys_.beta.size else 0.0
-    return W * (cauchy.sum(1) + T) / (2j * np.pi * sys_.A)
+    return W * (cauchy + T) / (2j * np.pi * sys_.A)
