@@ -385,11 +385,10 @@ class System:
         consistency conditions: a localised basis keeps the rows independent when the zones are
         narrow and far apart (monomials ``s^j`` are then nearly dependent)."""
         lay = self.layout
-        k = lay.e - lay.n
-        free_count = (~lay.pinned).reshape(-1, 2).sum(1)
-        order = np.argsort(-free_count, kind="stable")[:max(k, 0)]
-        z = self.e_hat.reshape(-1, 2)
-        return np.sort(z[order].mean(1))
+        e, pinned = lay.edges.tolist(), lay.pinned.tolist()
+        free = [2 - pinned[2 * z] - pinned[2 * z + 1] for z in range(lay.n)]
+        order = sorted(range(lay.n), key=lambda z: -free[z])[:max(lay.e - lay.n, 0)]
+        return np.array(sorted(0.5 * (e[2 * z] + e[2 * z + 1]) - self.xc for z in order))
 
     @cached_property
     def _node_factors(self) -> tuple[np.ndarray, np.ndarray]:
@@ -446,6 +445,8 @@ class System:
     def edge_pieces(self) -> list[Piece]:
         """Profile piece on the zone side of each edge (its continuation is used near the edge)."""
         el = self.layout.edges.tolist()
+        if self.profile.global_piece is not None:
+            return [self.profile.global_piece] * len(el)
         probes = np.array([x + (1.0 if i % 2 == 0 else -1.0) * 1e-9
                            * max(self.profile.scale, abs(x), 1e-300) for i, x in enumerate(el)])
         ks = self.profile.piece_index(probes).tolist()

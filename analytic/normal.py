@@ -183,7 +183,7 @@ def _residual(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[np.n
     n, e = lay.n, lay.e
     rows: list[float] = []
     P_ref = mode.P if mode.P is not None else max(abs(st.P), 1e-300)
-    slope = float(np.mean(np.abs(sys_.sq.dh))) if sys_.sq.dh.size else 0.0
+    slope = float(np.abs(sys_.sq.dh).sum()) / max(sys_.sq.dh.size, 1)
     g_scale = A * P_ref + slope * st.ell + 1e-300
     if e > n:
         mu, norm = sys_.consistency()

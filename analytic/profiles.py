@@ -88,15 +88,15 @@ class Profile:
         return any(a.hi != b.lo for a, b in zip(self.pieces, self.pieces[1:], strict=False))
 
     @cached_property
-    def _global_piece(self) -> Piece | None:
+    def global_piece(self) -> Piece | None:
         """The only piece when it covers the whole real line (cylinder, bi-quadratic)."""
         pc = self.pieces[0]
         return pc if len(self.pieces) == 1 and pc.lo == -INF and pc.hi == INF else None
 
     def _eval(self, x: np.ndarray, attr: str, outside: float) -> np.ndarray:
         x = np.asarray(x, dtype=float)
-        if self._global_piece is not None:
-            return np.asarray(getattr(self._global_piece, attr)(x), float)
+        if self.global_piece is not None:
+            return np.asarray(getattr(self.global_piece, attr)(x), float)
         idx = self.piece_index(x)
         if idx.size and idx.min() == idx.max() >= 0:  # one piece holds every x: no masking
             return np.asarray(getattr(self.pieces[int(idx.flat[0])], attr)(x), float)
