@@ -191,8 +191,20 @@ def build_squad(layout: Layout, profile: Profile, xc: float, theta: float) -> SQ
     logs = np.log(np.abs(s[:, None] - layout.edges[None, :]))
     rest = np.exp(np.einsum("ij,ij->i", logs, np.repeat(np.array(expo), counts, axis=0)))
     Om = np.concatenate(w_parts) * rest
-    dh = profile.dh0(s) - theta
+    dh = _segment_slopes(profile, s_parts) - theta
     return SQuad(s - xc, Om, np.abs(Om), dh)
+
+
+def _segment_slopes(profile: Profile, s_parts: list[np.ndarray]) -> np.ndarray:
+    """``h0'`` at the nodes of every segment.  Segments end at zone edges and kinks, and every
+    piece boundary inside the support is a kink or a corner, so each segment lies in one piece
+    (found from its middle node)."""
+    if profile.global_piece is not None or len(s_parts) == 1:
+        return profile.dh0(np.concatenate(s_parts))
+    mids = np.array([seg[seg.size // 2] for seg in s_parts])
+    pieces = profile.piece_index(mids).tolist()
+    return np.concatenate([profile.pieces[k].dh(seg) if k >= 0 else np.full(seg.size, np.nan)
+                           for k, seg in zip(pieces, s_parts, strict=True)])
 
 
 def zone_signs(layout: Layout) -> list[float]:
@@ -517,12 +529,20 @@ class System:
         """``h = h0 - theta x`` at the end of each graded part, from that part's piece."""
         return np.array([float(pc.h(np.array([x]))[0]) - self.theta * x for pc, x in ends])
 
+    @cached_property
+    def _edge_reach(self) -> list[tuple[float, Piece, float]]:
+        """Per edge: position, piece, and how far out its graded part may go (half-way to the
+        end of the piece's continuation)."""
+        out = []
+        for i, (x0, pc) in enumerate(zip(self.layout.edges.tolist(), self.edge_pieces,
+                                         strict=True)):
+            reach = pc.reach[1] if i % 2 == 1 else pc.reach[0]
+            out.append((x0, pc, 0.5 * abs(reach - x0) if math.isfinite(reach) else math.inf))
+        return out
+
     def _near_extent(self, i: int, x_to: float) -> tuple[float, float, Piece]:
         """Length of the graded part towards ``x_to``, its direction, and the edge piece."""
-        x0 = float(self.layout.edges[i])
-        pc = self.edge_pieces[i]
-        reach = pc.reach[1] if i % 2 == 1 else pc.reach[0]
-        lim = 0.5 * abs(reach - x0) if math.isfinite(reach) else math.inf
+        x0, pc, lim = self._edge_reach[i]
         return min(abs(x_to - x0), lim), (1.0 if x_to >= x0 else -1.0), pc
 
     def _near_rule(self, i: int, x_to: float):
