@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import brentq
@@ -406,16 +407,26 @@ def _beta_for(st: _State, A: float, P: float) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 # admissibility and topology updates
 # ---------------------------------------------------------------------------------------------
+_SCAN = np.linspace(0.0, 1.0, 401)        # profile scan for pressure dips inside a zone
+_OUTER_RUN = np.geomspace(1e-4, 3.0, 24)  # gap-slope samples beyond the outer edges (x span)
+
+
+@lru_cache(maxsize=8)
+def _cheb_unit(n: int) -> np.ndarray:
+    """Chebyshev points of the first kind mapped to (0, 1)."""
+    return 0.5 * (1 - np.cos(np.pi * (np.arange(n) + 0.5) / n))
+
+
 def _check_points_inside(edges: np.ndarray, n_pts: int = 49,
                          profile: Profile | None = None, theta: float = 0.0) -> np.ndarray:
     """Chebyshev points of every zone plus, when a profile is given, the local maxima of
     ``h0 - theta x`` inside the zones (where the pressure dips first when zones separate)."""
     z = edges.reshape(-1, 2)
-    t = 0.5 * (1 - np.cos(np.pi * (np.arange(n_pts) + 0.5) / n_pts))
+    t = _cheb_unit(n_pts)
     pts = [(z[:, :1] + (z[:, 1:] - z[:, :1]) * t[None, :]).ravel()]
     if profile is not None:
         for a, b in z:
-            x = np.linspace(a, b, 401)[1:-1]
+            x = a + (b - a) * _SCAN[1:-1]
             h = profile.h0(x) - theta * x
             peak = np.flatnonzero((h[1:-1] >= h[:-2]) & (h[1:-1] >= h[2:])) + 1
             pts.append(x[peak])
@@ -432,8 +443,8 @@ def _gap_candidates(st: _State, sys_: System, profile: Profile) -> np.ndarray:
     """
     e = st.layout.edges
     span = max(e[-1] - e[0], profile.scale)
-    t = 0.5 * (1 - np.cos(np.pi * (np.arange(24) + 0.5) / 24))
-    d = span * np.geomspace(1e-4, 3.0, 24)
+    t = _cheb_unit(24)
+    d = span * _OUTER_RUN
     runs = [e[2 * m + 1] + (e[2 * m + 2] - e[2 * m + 1]) * t for m in range(st.layout.n - 1)]
     runs += [e[-1] + d, e[0] - d]
     cands = [np.asarray([0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
