@@ -454,6 +454,7 @@ def _gap_candidates(st: _State, sys_: System, profile: Profile) -> np.ndarray:
     if profile.pieces_have_gaps:
         runs = [x[np.isfinite(profile.h0(x))] for x in runs]
     slopes = np.split(sys_.gap_slope(np.concatenate(runs)), np.cumsum([x.size for x in runs])[:-1])
+    slopes[-1] = -slopes[-1]  # the last run goes leftwards: the slope along it is -g'
     cands += [_slope_minima(x, gp) for x, gp in zip(runs, slopes, strict=True) if x.size]
     x = np.concatenate(cands)
     x = x[(x >= lo) & (x <= hi)]
@@ -461,8 +462,9 @@ def _gap_candidates(st: _State, sys_: System, profile: Profile) -> np.ndarray:
 
 
 def _slope_minima(x: np.ndarray, gp: np.ndarray) -> np.ndarray:
-    """Points where g' turns from negative to positive along x (ordered away from the edge),
-    the first point if g already falls there, and the last point if g still falls there."""
+    """Points of a run ``x`` (ordered away from its edge) where the slope of g along the run,
+    ``gp``, turns from negative to positive, the first point if g already falls there, and the
+    last point if g still falls there."""
     out = [x[0]] if gp[0] < 0 else []
     for i in np.flatnonzero((gp[:-1] < 0) & (gp[1:] >= 0)):
         f = gp[i] / (gp[i] - gp[i + 1])
@@ -607,7 +609,7 @@ class _StepFailed(Exception):
 
 
 def _predict(st: _State, prev: tuple[_State, ...], P_next: float, profile: Profile) -> _State:
-    """Edges at P_next extrapolated in log P through the current state and up to two earlier
+    """Edges at P_next extrapolated in log P through the current state and up to three earlier
     states of the same topology (up to cubic when four are at hand); a square-root widening of
     every zone when there is no history."""
     edges = st.layout.edges.copy()
@@ -615,7 +617,7 @@ def _predict(st: _State, prev: tuple[_State, ...], P_next: float, profile: Profi
     same = [q for q in prev if q.layout.edges.shape == edges.shape
             and np.array_equal(q.layout.pinned, st.layout.pinned) and q.P != st.P]
     if same:
-        pts = [st, *same[:2]]
+        pts = [st, *same[:3]]
         u = [math.log(q.P) for q in pts]
         if len(set(u)) < len(u):
             pts, u = pts[:2], u[:2]

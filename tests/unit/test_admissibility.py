@@ -1,0 +1,70 @@
+"""Unit tests of the admissibility checks of ``analytic.normal``: where the deformed gap is
+sampled, and the continuation predictor."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import analytic
+from analytic import normal, profiles
+
+
+@pytest.fixture
+def hertz():
+    sol = analytic.solve_normal(profiles.cylinder(1.0), 0.1, 1.0)
+    st = normal._fresh_state(sol._system.layout, 0.0, sol.P)
+    return sol, st
+
+
+def _with_slope(sys_, value: float):
+    """The system with a constant deformed-gap slope ``g' = value`` outside the zones."""
+    return SimpleNamespace(gap_slope=lambda x: np.full(np.shape(x), value),
+                           layout=sys_.layout)
+
+
+@pytest.mark.parametrize(("slope", "side"), [(1.0, "left"), (-1.0, "right")])
+def test_gap_falling_away_from_an_outer_edge_is_checked(hertz, slope: float, side: str) -> None:
+    """g' > 0 left of the zone means g falls leftwards away from the left edge (and g' < 0
+    right of it, rightwards): the check must sample g just beyond that edge, and only there."""
+    sol, st = hertz
+    (a, b), = sol.zones
+    cands = normal._gap_candidates(st, _with_slope(sol._system, slope), sol.profile)
+    cands = cands[np.abs(cands) > 1e-12]  # the profile's own minimum (x = 0) is inside the zone
+    if side == "left":
+        assert cands.size >= 1 and np.all(cands < a) and a - cands.max() < 1e-3 * (b - a)
+    else:
+        assert cands.size >= 1 and np.all(cands > b) and cands.min() - b < 1e-3 * (b - a)
+
+
+def test_healthy_outer_gap_needs_no_samples(hertz) -> None:
+    """The converged Hertz contact: g rises away from both edges, nothing to sample outside."""
+    sol, st = hertz
+    assert normal._gap_candidates(st, sol._system, sol.profile).size == 0
+
+
+def test_slope_minima_finds_the_turn_and_the_falling_ends() -> None:
+    x = np.linspace(0.0, 1.0, 11)
+    gp = x - 0.55  # falls first, then rises: the minimum at 0.55, and it falls at the start
+    out = normal._slope_minima(x, gp)
+    assert out[0] == 0.0 and out[1] == pytest.approx(0.55)
+    assert normal._slope_minima(x, -np.ones(11)).tolist() == [0.0, 1.0]
+    assert normal._slope_minima(x, np.ones(11)).size == 0
+
+
+def test_predictor_is_exact_for_edges_cubic_in_log_load() -> None:
+    """Through four states whose edges are cubic in log P the predictor reproduces the cubic."""
+    prof = profiles.cylinder(1.0)
+    loads = [0.1, 0.12, 0.15, 0.2]
+    target = 0.25
+
+    def edges(P: float) -> np.ndarray:
+        u = np.log(P)
+        return np.array([-1.0 - 0.1 * u - 0.01 * u**3, 1.0 + 0.2 * u + 0.02 * u**2])
+
+    states = [normal._State(analytic._sie.Layout(edges(P), np.zeros(2, bool)), np.zeros(0),
+                            0.0, P, 0.0, 2.0) for P in loads]
+    pred = normal._predict(states[-1], tuple(states[-2::-1]), target, prof)
+    np.testing.assert_allclose(pred.layout.edges, edges(target), rtol=1e-12)
