@@ -320,6 +320,11 @@ NEAR_MERGE_RTOL = 1e-6
 the Newton system is ill-conditioned there (observed 3.6e-8 / width at eps = 1e-6)."""
 
 
+NEAR_MERGE_EQUILIBRIUM = 1e-13
+"""Sum of the zone loads (contour integrals) against P just below merging: a fixed 160-node
+rule gave 2.6e-11 at eps = 1e-6, the adaptive one gives ~2e-15."""
+
+
 @pytest.mark.parametrize("eps", [1e-3, 1e-6])
 def test_gladwell_zones_merge_at_pi_c2_over_4AR(eps) -> None:
     c, R = 1.0, 1.0
@@ -330,6 +335,9 @@ def test_gladwell_zones_merge_at_pi_c2_over_4AR(eps) -> None:
     a = below.zones[1][0]
     assert 0 < a < 2 * np.sqrt(eps) * c  # a^2 = c^2 (1 - sqrt(1 - eps)) ~ c^2 eps / 2
     assert abs(below.zones[0][1] + a) <= NEAR_MERGE_RTOL * below.extent
+    # the zone-load contours are squeezed between the close zones: their rule must adapt
+    np.testing.assert_allclose(below.zone_loads, [below.P / 2] * 2, rtol=NEAR_MERGE_RTOL)
+    assert below.residuals["equilibrium"] <= NEAR_MERGE_EQUILIBRIUM
     assert len(above.zones) == 1
     lo, hi = above.zones[0]
     assert lo == pytest.approx(-hi, rel=EDGE_RTOL)
