@@ -144,6 +144,7 @@ class _State:
     jac: np.ndarray | None = None
     checks: dict | None = None
     F: np.ndarray | None = None  # scaled residuals of the last Newton solve of this state
+    system: System | None = None  # the System its residual was evaluated with (reused)
 
 
 def _free_edges(layout: Layout, mode: _Mode) -> np.ndarray:
@@ -225,7 +226,7 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
     """Damped Newton; a Jacobian carried over from the previous continuation step is reused
     (chord iterations) until the contraction slows, then refreshed by finite differences."""
     z = _pack(st, mode)
-    F, _ = _residual(st, mode, profile, A)
+    F, st.system = _residual(st, mode, profile, A)
     if z.size != F.size:
         raise AssertionError(f"unknowns {z.size} != equations {F.size}")
     if z.size == 0:
@@ -303,7 +304,7 @@ def _line_search(st, z, dz, norm, mode, profile, A):
         zt = z + lam * dz
         trial = _unpack(zt, st, mode, A)
         if _feasible(trial, profile):
-            Ft, _ = _residual(trial, mode, profile, A)
+            Ft, trial.system = _residual(trial, mode, profile, A)
             nt = float(np.max(np.abs(Ft)))
             if np.isfinite(nt) and (nt < (1 - 1e-4 * lam) * norm or nt < NEWTON_TOL):
                 return trial, zt, Ft, nt
@@ -663,7 +664,7 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
             history.append(_Event("pin", landed[1]))
             st = landed[0]
             continue
-        sys_ = System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
+        sys_ = st.system or System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
         ev = _find_event(st, sys_, profile, A)
         if ev is None:
             st.F = F
