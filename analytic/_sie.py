@@ -380,11 +380,10 @@ class System:
         return np.concatenate([s_in, s_out]), np.concatenate([O_in, O_out])
 
     # moments --------------------------------------------------------------------------------
-    def moments(self, jmax: int) -> tuple[np.ndarray, np.ndarray]:
-        """``mu_j = sum s^j h' Omega`` and the matching absolute sums (for scaling)."""
+    def moments(self, jmax: int) -> np.ndarray:
+        """``mu_j = sum s^j h' Omega`` for ``j <= jmax`` (shifted coordinate)."""
         sq = self.sq
-        pw = sq.s[None, :] ** np.arange(jmax + 1)[:, None]
-        return pw @ (sq.dh * sq.Omega), np.abs(pw) @ (np.abs(sq.dh) * sq.absOmega)
+        return (sq.s[None, :] ** np.arange(jmax + 1)[:, None]) @ self._dh_omega[0]
 
     @cached_property
     def _dh_omega(self) -> tuple[np.ndarray, np.ndarray]:
@@ -441,14 +440,14 @@ class System:
         lay, A = self.layout, self.A
         n, e = lay.n, lay.e
         if e >= n:
-            mu, _ = self.moments(e - n + 1)
+            mu = self.moments(e - n + 1)
             P = self.load()
             Mc = (mu[e - n + 1] + self.w1() * mu[e - n]) / A
         else:
             beta = self.beta
             P = -beta[n - e - 1] / A
             lower = beta[n - e - 2] if n - e - 2 >= 0 else 0.0
-            mu0 = self.moments(0)[0][0] if e == n - 1 else 0.0
+            mu0 = self.moments(0)[0] if e == n - 1 else 0.0
             Mc = -(lower + self.w1() * beta[n - e - 1] - mu0) / A
         return float(P), float(Mc + self.xc * P)
 
