@@ -261,15 +261,14 @@ class System:
         deg = lay.n - lay.e
         return series_coeffs(self.e_hat, lay.eps, -1.0, deg) if deg >= 0 else None
 
-    def poly_part(self, xh: np.ndarray) -> np.ndarray:
-        """``Poly(x)``: polynomial part of ``1/W`` at infinity (shifted coordinate)."""
-        c = self._poly_coeffs
-        return np.zeros_like(xh) if c is None else np.polyval(c, xh)
-
-    def T(self, xh: np.ndarray) -> np.ndarray:
-        if self.beta.size == 0:
-            return np.zeros_like(xh)
-        return np.polyval(self.beta[::-1], xh)
+    def _polynomial_terms(self, xh: np.ndarray, H: np.ndarray) -> np.ndarray | float:
+        """``pi H Poly(x) + T(x)`` at shifted points (0 when both vanish)."""
+        out: np.ndarray | float = 0.0
+        if self._poly_coeffs is not None:
+            out = np.pi * H * np.polyval(self._poly_coeffs, xh)
+        if self.beta.size:
+            out = out + np.polyval(self.beta[::-1], xh)
+        return out
 
     def B(self, xh: np.ndarray, H: np.ndarray,
           dH: np.ndarray | Callable[[], np.ndarray] | None = None) -> np.ndarray:
@@ -290,11 +289,7 @@ class System:
             fill = np.zeros_like(x) if dH is None else np.asarray(
                 dH() if callable(dH) else dH, float).ravel()
             q = np.where(small, np.broadcast_to(fill[:, None], q.shape), q)
-        val = q @ sq.Omega
-        if self._poly_coeffs is not None:
-            val += np.pi * Hr * np.polyval(self._poly_coeffs, x)
-        if self.beta.size:
-            val += np.polyval(self.beta[::-1], x)
+        val = q @ sq.Omega + self._polynomial_terms(x, Hr)
         return val.reshape(xh.shape)
 
     def W_real(self, x: np.ndarray) -> np.ndarray:
@@ -353,8 +348,7 @@ class System:
         dh = self.profile.dh0(s_all + self.xc) - self.theta
         xh = x - self.xc
         val = np.sum((dh - H) / (s_all - xh) * O_all)
-        return float(val + np.pi * H * self.poly_part(np.array([xh]))[0]
-                     + self.T(np.array([xh]))[0])
+        return float(val + self._polynomial_terms(xh, H))
 
     def _graded_piece(self, q: float, end: float, side: float, d: float):
         """Nodes/weights (times omega) on the piece between kink q and ``end``: graded towards q
@@ -463,19 +457,6 @@ class System:
         ks = self.profile.piece_index(probes).tolist()
         return [self.profile.pieces[max(k, 0)] for k in ks]
 
-    def edge_piece(self, i: int) -> Piece:
-        return self.edge_pieces[i]
-
-    @cached_property
-    def h_edges(self) -> np.ndarray:
-        """``h = h0 - theta x`` at every edge, from the edge's own piece."""
-        el = self.layout.edges.tolist()
-        return np.array([float(pc.h(np.array([x]))[0]) - self.theta * x
-                         for pc, x in zip(self.edge_pieces, el, strict=True)])
-
-    def h_at_edge(self, i: int) -> float:
-        return float(self.h_edges[i])
-
     @cached_property
     def _edge_clearances(self) -> list[float]:
         """Distance from each edge to the nearest other edge."""
@@ -483,15 +464,13 @@ class System:
         return [min([abs(x - y) for j, y in enumerate(el) if j != i], default=math.inf)
                 for i, x in enumerate(el)]
 
-    def wprime_integral(self, i: int, x_to: np.ndarray) -> np.ndarray:
-        """``int_{edge_i}^{x_to} w'(t) dt`` for points ``x_to`` on the outer side of edge i."""
-        x_to = np.atleast_1d(np.asarray(x_to, float))
-        return self.wprime_integrals(np.full(x_to.size, i), x_to)
-
-    def wprime_integrals(self, idx: np.ndarray, x_to: np.ndarray) -> np.ndarray:
-        """``int_{edge idx[j]}^{x_to[j]} w'(t) dt`` for every j, with one evaluation of B."""
+    def gaps_from_edges(self, idx: np.ndarray, x_to: np.ndarray, h_to: np.ndarray) -> np.ndarray:
+        """Deformed gap at ``x_to[j]`` (where ``h = h_to[j]``), integrated from edge ``idx[j]``
+        (``g = 0`` there) on the outer side: ``g = h(x) - h(x0) + int_{x0}^{x} w'`` with
+        ``int w' = S - (h(x_e) - h(x0))`` (see :meth:`_gap_sums`), so ``g = h(x) - h(x_e) + S``.
+        One evaluation of B for all points."""
         S, ends = self._gap_sums(idx, x_to)
-        return S - self._h_at(ends) + self.h_edges[np.asarray(idx, int)]
+        return h_to - self._h_at(ends) + S
 
     def _gap_sums(self, idx: np.ndarray, x_to: np.ndarray) -> tuple[np.ndarray, list]:
         """``int g'`` from edge ``idx[j]`` to ``x_to[j]`` and the (piece, end) of its graded part.
@@ -586,6 +565,3 @@ class System:
                          in zip(ends[: n - 1], ends[n - 1:], strict=True)])
         return S[: n - 1] - S[n - 1:] + jump
 
-    def interconnection(self, m: int) -> float:
-        """Rigid interconnection residual between zones m and m+1 (paper Eq. 17)."""
-        return float(self.interconnections()[m])

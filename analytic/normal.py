@@ -107,7 +107,7 @@ def deformed_gap(sys_: System, x: np.ndarray) -> np.ndarray:
     todo = ~inside & np.isfinite(h)
     if np.any(todo):
         i = nearest[todo]
-        out[todo] = h[todo] - sys_.h_edges[i] + sys_.wprime_integrals(i, x[todo])
+        out[todo] = sys_.gaps_from_edges(i, x[todo], h[todo])
     return out
 
 
