@@ -32,8 +32,8 @@ All coordinates here are shifted by the centre ``xc`` (powers stay well scaled).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 
 import numpy as np
@@ -157,7 +157,9 @@ def _binomial_series(alpha: float, order: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SQuad:
-    """Quadrature over L for ``int_L f(s) omega(s) ds ~ sum f(s_q) Omega_q``."""
+    """Quadrature over L for ``int_L f(s) omega(s) ds ~ sum f(s_q) Omega_q``: nodes ``s``
+    (shifted), weights ``Omega`` (omega folded in), ``|Omega|`` and ``h'`` at the nodes.  Arrays
+    are 1-D for one layout or ``(K, N)`` for a batch of K edge sets."""
 
     s: np.ndarray
     Omega: np.ndarray
@@ -165,52 +167,115 @@ class SQuad:
     dh: np.ndarray
 
 
-def build_squad(layout: Layout, profile: Profile, xc: float, theta: float) -> SQuad:
-    """Gauss-Jacobi rules on every zone, split at the profile's kinks (edge weights at the ends);
-    ``Omega`` is the weight times the rest of ``omega = 1/W_s`` (one log-sum for all nodes)."""
+@dataclass(frozen=True)
+class SquadPlan:
+    """The structure of the zone quadrature of one layout, reusable for nearby edge sets: every
+    segment (a zone cut at the profile's kinks) as indices into ``[edges, kinks]`` with its
+    reference Gauss-Jacobi rule, the exponents of ``|s - e_i|`` outside the rule's weight and
+    the profile piece that holds it."""
+
+    lo: np.ndarray        # (segments,) index of the left end in [edges, kinks]
+    hi: np.ndarray
+    kinks: np.ndarray     # x of the kinks that cut a zone
+    power: np.ndarray     # (segments,) 1 + al + ah: the weight's scaling with the half-width
+    sign: np.ndarray      # (segments,) s_k of the zone
+    t: np.ndarray         # (N,) reference nodes on [-1, 1], all segments
+    w: np.ndarray         # (N,) reference weights
+    seg: np.ndarray       # (N,) segment of each node
+    expo: np.ndarray      # (N, 2n) exponents left outside the Jacobi weight
+    pieces: tuple | None  # per segment: its profile piece (None: profile.dh0 on all nodes)
+    counts: tuple[int, ...]
+
+
+def squad_plan(layout: Layout, profile: Profile) -> SquadPlan:
+    """Gauss-Jacobi rules on every zone, split at the profile's kinks (edge weights at the ends,
+    sizes from the clearance to the neighbouring zones); the arrays are cached per structure."""
     el = layout.edges.tolist()
-    eps = layout.eps
     clearance = zone_clearances(el)
-    signs = zone_signs(layout)
-    s_parts, w_parts, counts, expo = [], [], [], []
+    kinks = [q for q in profile.kinks
+             if any(a < q < b for a, b in zip(el[::2], el[1::2], strict=True))]
+    where = {q: len(el) + j for j, q in enumerate(kinks)}
+    segments, mids = [], []
     for k in range(len(el) // 2):
         a, b = el[2 * k], el[2 * k + 1]
-        cuts = [a, *[q for q in profile.kinks if a < q < b], b]
+        cuts = [a, *[q for q in kinks if a < q < b], b]
         for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
-            row = -eps.copy()  # exponents of |s - e_i| left outside the Jacobi weight
-            al, ah = (row[2 * k] if lo == a else 0.0), (row[2 * k + 1] if hi == b else 0.0)
-            row[2 * k] = 0.0 if lo == a else row[2 * k]
-            row[2 * k + 1] = 0.0 if hi == b else row[2 * k + 1]
             n = nodes_for(hi - lo, min(clearance[k], _kink_clearance(lo, hi, a, b)))
-            s, w = mapped_rule(lo, hi, al, ah, n)
-            s_parts.append(s)
-            w_parts.append(w * signs[k])
-            counts.append(n)
-            expo.append(row)
-    s = np.concatenate(s_parts)
-    logs = np.log(np.abs(s[:, None] - layout.edges[None, :]))
-    rest = np.exp(np.einsum("ij,ij->i", logs, np.repeat(np.array(expo), counts, axis=0)))
-    Om = np.concatenate(w_parts) * rest
-    dh = _segment_slopes(profile, s_parts) - theta
+            segments.append((k, 2 * k if lo == a else where[lo],
+                             2 * k + 1 if hi == b else where[hi], n))
+            mids.append(0.5 * (lo + hi))
+    pieces = None
+    if profile.global_piece is None and len(segments) > 1:
+        pieces = tuple(profile.pieces[k] if k >= 0 else None
+                       for k in profile.piece_index(np.array(mids)).tolist())
+    return _squad_plan(tuple(layout.pinned.tolist()), tuple(kinks), tuple(segments), pieces)
+
+
+@lru_cache(maxsize=256)
+def _squad_plan(pinned: tuple, kinks: tuple, segments: tuple, pieces: tuple | None) -> SquadPlan:
+    """The arrays of a zone quadrature: segments ``(zone, lo, hi, nodes)`` with ``lo, hi`` indices
+    into ``[edges, kinks]``."""
+    n_edges = len(pinned)
+    eps = np.where(pinned, -0.5, 0.5)
+    signs = zone_signs(pinned)
+    power, ts, ws, expo = [], [], [], []
+    for _zone, lo, hi, n in segments:
+        row = -eps  # exponents of |s - e_i| left outside the Jacobi weight
+        al = row[lo] if lo < n_edges else 0.0
+        ah = row[hi] if hi < n_edges else 0.0
+        row[[i for i in (lo, hi) if i < n_edges]] = 0.0
+        t, w = jacobi_rule(n, float(ah), float(al))
+        power.append(1.0 + al + ah)
+        ts.append(t)
+        ws.append(w)
+        expo.append(row)
+    counts = tuple(sg[3] for sg in segments)
+    return SquadPlan(np.array([sg[1] for sg in segments]), np.array([sg[2] for sg in segments]),
+                     np.array(kinks, float), np.array(power),
+                     np.array([signs[sg[0]] for sg in segments]), np.concatenate(ts),
+                     np.concatenate(ws), np.repeat(np.arange(len(counts)), counts),
+                     np.repeat(np.array(expo), counts, axis=0), pieces, counts)
+
+
+def squad_nodes(plan: SquadPlan, profile: Profile, edges: np.ndarray, xc: float,
+                theta: np.ndarray) -> SQuad:
+    """The planned rule for a batch of edge sets ``(K, 2n)`` (absolute x) and rotations ``(K,)``:
+    ``(K, N)`` arrays; ``Omega`` is the weight times the rest of ``omega = 1/W_s`` (one log-sum
+    for all nodes)."""
+    K = edges.shape[0]
+    ends = np.concatenate([edges, np.broadcast_to(plan.kinks, (K, plan.kinks.size))], axis=1)
+    lo, hi = ends[:, plan.lo], ends[:, plan.hi]
+    half = 0.5 * (hi - lo)
+    s = (0.5 * (lo + hi))[:, plan.seg] + half[:, plan.seg] * plan.t
+    w = plan.w * (half**plan.power * plan.sign)[:, plan.seg]
+    logs = np.log(np.abs(s[:, :, None] - edges[:, None, :]))
+    Om = w * np.exp(np.einsum("kne,ne->kn", logs, plan.expo))
+    dh = _segment_slopes(plan, profile, s) - theta[:, None]
     return SQuad(s - xc, Om, np.abs(Om), dh)
 
 
-def _segment_slopes(profile: Profile, s_parts: list[np.ndarray]) -> np.ndarray:
-    """``h0'`` at the nodes of every segment.  Segments end at zone edges and kinks, and every
-    piece boundary inside the support is a kink or a corner, so each segment lies in one piece
-    (found from its middle node)."""
-    if profile.global_piece is not None or len(s_parts) == 1:
-        return profile.dh0(np.concatenate(s_parts))
-    mids = np.array([seg[seg.size // 2] for seg in s_parts])
-    pieces = profile.piece_index(mids).tolist()
-    return np.concatenate([profile.pieces[k].dh(seg) if k >= 0 else np.full(seg.size, np.nan)
-                           for k, seg in zip(pieces, s_parts, strict=True)])
+def build_squad(layout: Layout, profile: Profile, xc: float, theta: float) -> SQuad:
+    """The zone quadrature of one layout (1-D arrays)."""
+    sq = squad_nodes(squad_plan(layout, profile), profile, layout.edges[None, :], xc,
+                     np.array([theta]))
+    return SQuad(sq.s[0], sq.Omega[0], sq.absOmega[0], sq.dh[0])
 
 
-def zone_signs(layout: Layout) -> list[float]:
-    """``s_k``: the sign of ``W_s`` on each zone (from d, the edges to the right of its middle)."""
+def _segment_slopes(plan: SquadPlan, profile: Profile, s: np.ndarray) -> np.ndarray:
+    """``h0'`` at the nodes ``(K, N)``.  Segments end at zone edges and kinks, and every piece
+    boundary inside the support is a kink or a corner, so each segment lies in one piece."""
+    if plan.pieces is None:
+        return profile.dh0(s)
+    parts = np.split(s, np.cumsum(plan.counts)[:-1], axis=1)
+    return np.concatenate([pc.dh(seg) if pc is not None else np.full(seg.shape, np.nan)
+                           for pc, seg in zip(plan.pieces, parts, strict=True)], axis=1)
+
+
+def zone_signs(pinned: Sequence[bool]) -> list[float]:
+    """``s_k``: the sign of ``W_s`` on each zone (from d, the edges to the right of its middle),
+    given the singular flags of the edges."""
     d, out = 0, []
-    for i, pin in reversed(list(enumerate(layout.pinned.tolist()))):
+    for i, pin in reversed(list(enumerate(pinned))):
         d += -1 if pin else 1
         if i % 2 == 1:  # d now counts b_k and everything right of it
             out.append(1.0 - 2.0 * (((d - (d % 2)) // 2) % 2))
@@ -231,9 +296,390 @@ def _kink_clearance(lo: float, hi: float, a: float, b: float) -> float:
     return max(hi - lo, 1e-300) if (lo == a and hi == b) else max(min(hi - lo, b - a), 1e-300)
 
 
+def cauchy_sums(sq: SQuad, xh: np.ndarray, H: np.ndarray,
+                dH: np.ndarray | Callable[[], np.ndarray] | None = None,
+                off_nodes: bool = False) -> np.ndarray:
+    """``int_L (h'(s) - H) omega(s)/(s - x) ds`` at shifted points ``xh`` ``(K, M)`` with the
+    subtraction values ``H`` ``(K, M)``, for a batch rule ``sq`` ``(K, N)``.
+
+    Where a point coincides with a node (closer than 1e-13 relative) the divided difference is
+    replaced by its limit ``dH`` (an array, a callable giving it, or None for 0); the check is
+    skipped for points known to lie outside the zones (``off_nodes``)."""
+    if xh.shape[0] > 1:  # member by member: one member's matrix stays in cache
+        return np.concatenate([cauchy_sums(
+            SQuad(sq.s[k:k + 1], sq.Omega[k:k + 1], sq.absOmega[k:k + 1], sq.dh[k:k + 1]),
+            xh[k:k + 1], H[k:k + 1], None if dH is None else (lambda k=k: _row(dH, k, xh.shape)),
+            off_nodes) for k in range(xh.shape[0])])
+    diff = sq.s[0][None, :] - xh[0][:, None]
+    q = sq.dh[0][None, :] - H[0][:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q /= diff
+    if not off_nodes:
+        np.abs(diff, out=diff)
+        tiny = 1e-13 * (1.0 + np.abs(xh[0]))
+        if xh.size and diff.min() < tiny.max():
+            small = diff < tiny[:, None]
+            fill = np.zeros(xh.shape[1]) if dH is None else np.asarray(
+                dH() if callable(dH) else dH, float).reshape(xh.shape)[0]
+            q = np.where(small, np.broadcast_to(fill[:, None], q.shape), q)
+    return (q @ sq.Omega[0])[None, :]
+
+
+def _row(dH: np.ndarray | Callable[[], np.ndarray], k: int, shape: tuple) -> np.ndarray:
+    return np.asarray(dH() if callable(dH) else dH, float).reshape(shape)[k]
+
+
+FAR_NODES = 48
+
+
+@dataclass(frozen=True)
+class GapPlan:
+    """Structure of integrals of ``g'`` from edges towards targets, every node affine in three
+    per-integral lengths: ``D = |x_to - x_edge|``, ``L = min(D, reach limit)`` (the part graded
+    towards the edge) and ``f = min(L, clearance)`` (its first sub-interval).  A node sits at
+    ``x = x_edge + dir t`` with ``t = a . (f, L, D)``, the half-width of its sub-interval is
+    ``c . (f, L, D)`` and its weight ``w hw base^ex`` with ``base = b_f f + b_t t`` (``w`` holds
+    the direction and the sign of W in the gap).
+
+    Graded part: Gauss-Jacobi on ``[0, f]`` with the edge factor ``t^eps`` of W in the weight,
+    then Gauss-Legendre on sub-intervals growing geometrically (ratio GRADING) up to ``L`` with
+    ``t^eps`` folded into the weights; the edge piece's continuation is the subtraction value.
+    Beyond ``L`` (half-way to the end of that continuation): plain Gauss-Legendre, ``H = 0``.
+    """
+
+    edge: np.ndarray        # (parts,) edge index
+    direction: np.ndarray   # (parts,) +1 rightwards, -1 leftwards
+    reach: np.ndarray       # (parts,) end of the edge piece's continuation on that side
+    pieces: tuple           # (parts,) edge piece
+    far: tuple              # (parts,) whether a plain part follows the graded one
+    part: np.ndarray        # (nodes,) integral of each node
+    own: np.ndarray         # (nodes,) edge whose factor is in the weight, -1 for plain nodes
+    a: np.ndarray           # (3, nodes) t coefficients of (f, L, D)
+    c: np.ndarray           # (3, nodes) half-width coefficients
+    b: np.ndarray           # (2, nodes) base coefficients of (f, t)
+    ex: np.ndarray          # (nodes,) exponent of the base (eps of the edge; 0 on plain parts)
+    w: np.ndarray           # (nodes,) reference weight times the direction and the sign of W
+    groups: tuple           # (piece, node indices) of the graded nodes, per piece
+    sums: np.ndarray        # (nodes, parts) indicator: which integral each node adds to
+
+    @cached_property
+    def maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Matrices from the lengths ``[f, L, D]`` ``(K, 3 parts)`` to t, the half-widths and
+        the ``f`` term of the base at the nodes, and per node its edge and direction."""
+        per_part = self.sums.T
+        a, c = (np.concatenate([per_part * m[i] for i in range(3)]) for m in (self.a, self.c))
+        b = np.concatenate([per_part * self.b[0], 0.0 * per_part, 0.0 * per_part])
+        return a, c, b, self.edge[self.part], self.direction[self.part]
+
+
+def _graded_part(n_first: int, n_graded: int) -> list[tuple]:
+    """Per sub-interval of the graded part: (reference rule, t = lo(1-tau)/2 + hi(1+tau)/2 with
+    lo and hi as (f, L, D) coefficients, Jacobi flag)."""
+    out = [(n_first, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), True)]
+    for m in range(n_graded):
+        lo = (GRADING**m, 0.0, 0.0)
+        hi = (0.0, 1.0, 0.0) if m == n_graded - 1 else (GRADING ** (m + 1), 0.0, 0.0)
+        out.append((24, lo, hi, False))
+    return out
+
+
+@lru_cache(maxsize=256)
+def _gap_plan(structure: tuple, pinned: tuple) -> GapPlan:
+    """The plan of the integrals ``(edge, direction, eps, piece, n_first, n_graded, far)`` for
+    edges with the singular flags ``pinned``."""
+    cols: dict[str, list] = {k: [] for k in ("part", "own", "a", "c", "b", "ex", "w")}
+    groups: dict = {}
+    right = np.cumsum(np.where(pinned, -1, 1)[::-1])[::-1]  # d at x just left of each edge
+    for j, (edge, direction, eps, _pc, n_first, n_graded, far) in enumerate(structure):
+        # the sign of W in the gap next to the edge: d counts the edges to the right of x
+        d = right[edge + 1] if direction > 0 and edge + 1 < len(pinned) else \
+            (0 if direction > 0 else right[edge])
+        sign = float(sign_from_d(np.array(d)))
+        subs = _graded_part(n_first, n_graded) if n_first else []
+        if far:
+            subs.append((FAR_NODES, (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), None))
+        for n, lo, hi, jacobi in subs:
+            tau, w = jacobi_rule(n, 0.0, eps) if jacobi else jacobi_rule(n, 0.0, 0.0)
+            lo_, hi_ = np.array(lo)[:, None], np.array(hi)[:, None]
+            cols["a"].append(lo_ * (1 - tau) / 2 + hi_ * (1 + tau) / 2)
+            cols["c"].append(np.repeat((hi_ - lo_) / 2, n, axis=1))
+            cols["b"].append(np.repeat([[0.5], [0.0]] if jacobi else [[0.0], [1.0]], n, axis=1))
+            cols["ex"].append(np.full(n, 0.0 if jacobi is None else eps))
+            cols["w"].append(sign * direction * w)
+            cols["own"].append(np.full(n, -1 if jacobi is None else edge))
+            cols["part"].append(np.full(n, j))
+    if not cols["part"]:
+        z = np.zeros(0)
+        return GapPlan(*_part_arrays(structure), np.zeros(0, int), np.zeros(0, int),
+                       np.zeros((3, 0)), np.zeros((3, 0)), np.zeros((2, 0)), z, z, (),
+                       np.zeros((0, len(structure))))
+    part = np.concatenate(cols["part"])
+    own = np.concatenate(cols["own"])
+    for pc in {s[3] for s in structure}:
+        nodes = np.flatnonzero((own >= 0) & np.isin(part, [j for j, s in enumerate(structure)
+                                                           if s[3] is pc]))
+        if nodes.size:
+            groups[pc] = nodes
+    return GapPlan(*_part_arrays(structure), part, own, np.concatenate(cols["a"], 1),
+                   np.concatenate(cols["c"], 1), np.concatenate(cols["b"], 1),
+                   np.concatenate(cols["ex"]), np.concatenate(cols["w"]), tuple(groups.items()),
+                   (part[:, None] == np.arange(len(structure))).astype(float))
+
+
+def _part_arrays(structure: tuple) -> tuple:
+    edge = np.array([s[0] for s in structure], int)
+    direction = np.array([s[1] for s in structure], float)
+    reach = np.array([s[3].reach[1] if s[0] % 2 == 1 else s[3].reach[0] for s in structure],
+                     float)
+    return edge, direction, reach, tuple(s[3] for s in structure), tuple(s[6] for s in structure)
+
+
+
+@dataclass(frozen=True)
+class Batch:
+    """The equations of one contact topology for K edge sets at once (paper Eqs. 12/14, 17,
+    equilibrium and moment), all with the quadrature structure planned on ``layout`` (a frozen
+    discretisation: finite differences through it are derivatives of one smooth function).
+
+    ``edges (K, 2n)`` absolute x; ``theta (K,)``; ``beta (K, n_beta)`` (coefficients of T in the
+    coordinate shifted by ``xc``); ``sq`` the zone rule ``(K, N)``.
+    """
+
+    layout: Layout
+    profile: Profile
+    A: float
+    xc: float
+    edges: np.ndarray
+    theta: np.ndarray
+    beta: np.ndarray
+    sq: SQuad
+
+    @classmethod
+    def build(cls, layout: Layout, profile: Profile, A: float, xc: float, edges: np.ndarray,
+              theta: np.ndarray, beta: np.ndarray, plan: SquadPlan | None = None) -> Batch:
+        plan = squad_plan(layout, profile) if plan is None else plan
+        edges, theta = np.atleast_2d(edges), np.atleast_1d(np.asarray(theta, float))
+        beta = np.asarray(beta, float)
+        beta = beta.reshape(edges.shape[0], beta.size // edges.shape[0])
+        return cls(layout, profile, A, xc, edges, theta, beta,
+                   squad_nodes(plan, profile, edges, xc, theta))
+
+    @property
+    def size(self) -> int:
+        return self.edges.shape[0]
+
+    # B and its polynomial terms ------------------------------------------------------------
+    @cached_property
+    def _poly_coeffs(self) -> np.ndarray | None:
+        """Per member, coefficients (highest first) of ``Poly``, the polynomial part of ``1/W``
+        at infinity; None when it vanishes (e > n)."""
+        lay = self.layout
+        deg = lay.n - lay.e
+        if deg < 0:
+            return None
+        return np.array([series_coeffs(e, lay.eps, -1.0, deg) for e in self.edges - self.xc])
+
+    def polynomial_terms(self, xh: np.ndarray, H: np.ndarray) -> np.ndarray | float:
+        """``pi H Poly(x) + T(x)`` at shifted points ``(K, M)`` (0 when both vanish)."""
+        out: np.ndarray | float = 0.0
+        if self._poly_coeffs is not None:
+            out = np.pi * H * _horner_rows(self._poly_coeffs, xh)
+        if self.beta.shape[1]:
+            out = out + _horner_rows(self.beta[:, ::-1], xh)
+        return out
+
+    def B(self, xh: np.ndarray, H: np.ndarray,
+          dH: np.ndarray | Callable[[], np.ndarray] | None = None,
+          off_nodes: bool = False) -> np.ndarray:
+        """``B(x)`` at shifted points ``(K, M)`` (see :func:`cauchy_sums` for ``dH`` and
+        ``off_nodes``)."""
+        return cauchy_sums(self.sq, xh, H, dH, off_nodes) + self.polynomial_terms(xh, H)
+
+    # consistency, load, moment -------------------------------------------------------------
+    @cached_property
+    def _dh_omega(self) -> tuple[np.ndarray, np.ndarray]:
+        """``h' Omega`` at the nodes and its absolute value (scales of the sums)."""
+        sq = self.sq
+        return sq.dh * sq.Omega, np.abs(sq.dh) * sq.absOmega
+
+    @cached_property
+    def _node_factors(self) -> tuple[np.ndarray, np.ndarray]:
+        """The consistency nodes ``c (K, m)`` (centres of :func:`consistency_zones`, shifted)
+        and ``s - c_j`` ``(K, N, m)``."""
+        zones = consistency_zones(self.layout)
+        e = self.edges - self.xc
+        c = 0.5 * (e[:, 2 * zones] + e[:, 2 * zones + 1])
+        return c, self.sq.s[:, :, None] - c[:, None, :]
+
+    def consistency(self) -> tuple[np.ndarray, np.ndarray]:
+        """Consistency residuals ``int_L L_j(s) h'(s) omega(s) ds`` (paper Eq. 12) ``(K, m)`` in
+        the Lagrange basis on the centres of :func:`consistency_zones` (a localised basis keeps
+        the rows independent when the zones are narrow and far apart), and the absolute sums
+        used to scale them."""
+        c, D = self._node_factors
+        m = D.shape[2]
+        L = np.ones(D.shape)
+        for j in range(m):
+            for i in range(m):
+                if i != j:
+                    L[:, :, j] *= D[:, :, i] / (c[:, j] - c[:, i])[:, None]
+        f, f_abs = self._dh_omega
+        return (f[:, None, :] @ L)[:, 0, :], (f_abs[:, None, :] @ np.abs(L))[:, 0, :]
+
+    def load(self) -> np.ndarray:
+        """Total load ``(K,)``: ``P = (1/A) int_L prod_j (s - c_j) h' omega ds`` for e >= n (the
+        monic degree-(e-n) polynomial; equal to ``mu_{e-n}/A`` once consistency holds) or
+        ``-beta_{n-e-1}/A`` for e < n."""
+        lay = self.layout
+        if lay.e < lay.n:
+            return -self.beta[:, lay.n - lay.e - 1] / self.A
+        poly = np.prod(self._node_factors[1], axis=2)
+        return np.sum(poly * self._dh_omega[0], axis=1) / self.A
+
+    def moments(self, jmax: int) -> np.ndarray:
+        """``mu_j = sum s^j h' Omega`` ``(K, jmax + 1)`` (shifted coordinate)."""
+        return np.einsum("kn,knj->kj", self._dh_omega[0],
+                         self.sq.s[:, :, None] ** np.arange(jmax + 1))
+
+    def w1(self) -> np.ndarray:
+        """``w1`` of ``W = z^(e-n) (1 + w1/z + ...)``: ``-sum eps_i e_i`` (shifted)."""
+        return -(self.edges - self.xc) @ self.layout.eps
+
+    def load_and_moment(self) -> tuple[np.ndarray, np.ndarray]:
+        """Total load and moment about x = 0 ``(K,)`` implied by the state (closed forms)."""
+        lay, A = self.layout, self.A
+        n, e = lay.n, lay.e
+        P = self.load()
+        if e >= n:
+            mu = self.moments(e - n + 1)
+            Mc = (mu[:, e - n + 1] + self.w1() * mu[:, e - n]) / A
+        else:
+            beta = self.beta
+            lower = beta[:, n - e - 2] if n - e - 2 >= 0 else 0.0
+            mu0 = self.moments(0)[:, 0] if e == n - 1 else 0.0
+            Mc = -(lower + self.w1() * beta[:, n - e - 1] - mu0) / A
+        return P, Mc + self.xc * P
+
+    # gap integrals -------------------------------------------------------------------------
+    @cached_property
+    def edge_pieces(self) -> list[Piece]:
+        """Profile piece on the zone side of each edge (of the planning layout; its
+        continuation is used near the edge)."""
+        el = self.layout.edges.tolist()
+        if self.profile.global_piece is not None:
+            return [self.profile.global_piece] * len(el)
+        probes = np.array([x + (1.0 if i % 2 == 0 else -1.0) * 1e-9
+                           * max(self.profile.scale, abs(x), 1e-300) for i, x in enumerate(el)])
+        ks = self.profile.piece_index(probes).tolist()
+        return [self.profile.pieces[max(k, 0)] for k in ks]
+
+    @cached_property
+    def _edge_clearances(self) -> np.ndarray:
+        """Distance from each edge to the nearest other edge ``(K, 2n)`` (edges are sorted)."""
+        d = np.diff(self.edges, axis=1)
+        pad = np.full((self.size, 1), np.inf)
+        return np.minimum(np.concatenate([pad, d], 1), np.concatenate([d, pad], 1))
+
+    def gap_plan(self, idx: Sequence[int], x_to: Sequence[float]) -> GapPlan:
+        """The structure of the integrals from edges ``idx`` to ``x_to``, sized on member 0; each
+        target lies in the gap (or the outer region) on the outer side of its edge."""
+        eps = self.layout.eps.tolist()
+        structure = []
+        for i, xt in zip(idx, x_to, strict=True):
+            x0 = float(self.edges[0, i])
+            pc = self.edge_pieces[i]
+            reach = pc.reach[1] if i % 2 == 1 else pc.reach[0]
+            dist = abs(xt - x0)
+            length = min(dist, 0.5 * abs(reach - x0))
+            n_first = n_graded = 0
+            if length > 0:
+                c = float(self._edge_clearances[0, i])
+                first = min(length, max(c, 1e-300))
+                n_first = nodes_for(first, c)
+                lo = first
+                while lo < length * (1 - 1e-14):
+                    lo, n_graded = min(length, lo * GRADING), n_graded + 1
+            structure.append((int(i), 1.0 if xt >= x0 else -1.0, eps[i], pc, n_first, n_graded,
+                              dist > length * (1 + 1e-14)))
+        return _gap_plan(tuple(structure), tuple(self.layout.pinned.tolist()))
+
+    def gap_sums(self, plan: GapPlan, x_to: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``int g'`` ``(K, parts)`` from each planned edge to ``x_to (K, parts)`` (the graded
+        parts as ``S - [h]``, see :class:`GapPlan`), and the end of each graded part
+        ``(K, parts)``.  All points share one evaluation of B."""
+        x0 = self.edges[:, plan.edge]
+        D = np.abs(x_to - x0)
+        L = np.minimum(D, 0.5 * np.abs(plan.reach - x0))
+        ends = np.where(L == D, x_to, x0 + plan.direction * L)
+        if plan.part.size == 0:
+            return np.zeros(x_to.shape), ends
+        f = np.minimum(L, np.maximum(self._edge_clearances[:, plan.edge], 1e-300))
+        lengths = np.concatenate([f, L, D], axis=1)
+        to_t, to_hw, to_base, node_edge, node_dir = plan.maps
+        t = lengths @ to_t
+        w = plan.w * (lengths @ to_hw) * (lengths @ to_base + plan.b[1] * t) ** plan.ex
+        x = self.edges[:, node_edge] + node_dir * t
+        H = np.zeros(x.shape)
+        for pc, nodes in plan.groups:
+            H[:, nodes] = pc.dh(x[:, nodes]) - self.theta[:, None]
+        logs = np.log(np.abs(x[:, :, None] - self.edges[:, None, :]))
+        rows = np.flatnonzero(plan.own >= 0)
+        logs[:, rows, plan.own[rows]] = 0.0  # the edge's own factor is in the graded weight
+        vals = w * np.exp(logs @ self.layout.eps) * self.B(x - self.xc, H, off_nodes=True)
+        return (vals @ plan.sums) / np.pi, ends
+
+    def h_at(self, ends: np.ndarray, pieces: Sequence[Piece]) -> np.ndarray:
+        """``h = h0 - theta x`` at the ends ``(K, q)`` of graded parts, from their pieces."""
+        out = np.empty(ends.shape)
+        for j, pc in enumerate(pieces):
+            out[:, j] = pc.h(ends[:, j]) - self.theta * ends[:, j]
+        return out
+
+    def interconnections(self) -> np.ndarray:
+        """Rigid interconnection residuals ``(K, n - 1)`` between neighbouring zones (paper
+        Eq. 17), all gaps: ``h(a) - h(b) + int_b^mid w' - int_a^mid w' = S_b - S_a + [h]`` where
+        ``[h]``, the jump of h between the ends of the two graded parts, vanishes when both reach
+        the midpoint on the same piece."""
+        n = self.layout.n
+        if n < 2:
+            return np.zeros((self.size, 0))
+        e = self.edges
+        ib = 2 * np.arange(n - 1) + 1
+        mid = 0.5 * (e[:, ib] + e[:, ib + 1])
+        x_to = np.concatenate([mid, mid], axis=1)
+        plan = self.gap_plan([*ib.tolist(), *(ib + 1).tolist()], x_to[0].tolist())
+        S, ends = self.gap_sums(plan, x_to)
+        out = S[:, : n - 1] - S[:, n - 1:]
+        pcs = plan.pieces
+        for m in range(n - 1):
+            pb, pa = pcs[m], pcs[m + n - 1]
+            if not (pb is pa and not plan.far[m] and not plan.far[m + n - 1]):
+                h = self.h_at(ends[:, [m + n - 1, m]], [pa, pb])
+                out[:, m] += h[:, 0] - h[:, 1]
+        return out
+
+def consistency_zones(layout: Layout) -> np.ndarray:
+    """The ``e - n`` zones whose centres carry the Lagrange basis of the consistency conditions:
+    those with the most nonsingular edges (ties: leftmost), in order of x."""
+    pinned = layout.pinned.tolist()
+    free = [2 - pinned[2 * z] - pinned[2 * z + 1] for z in range(layout.n)]
+    order = sorted(range(layout.n), key=lambda z: -free[z])[:max(layout.e - layout.n, 0)]
+    return np.array(sorted(order), int)
+
+
+def _horner_rows(coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Row k of ``coeffs (K, d+1)`` (highest power first) evaluated at row k of ``x (K, M)``."""
+    out = np.zeros(x.shape)
+    for c in coeffs.T:
+        out *= x
+        out += c[:, None]
+    return out
+
+
 @dataclass
 class System:
-    """Everything needed to evaluate B, p, g' for one layout (shifted coordinates)."""
+    """One layout's state (shifted coordinates): its zone rule ``sq`` (1-D) and the one-member
+    :class:`Batch` that evaluates its equations and gap integrals; B, p and g' at any points."""
 
     layout: Layout
     profile: Profile
@@ -242,54 +688,37 @@ class System:
     xc: float
     beta: np.ndarray
     sq: SQuad
+    batch: Batch = field(repr=False)
 
     @classmethod
     def build(cls, layout, profile, A, theta, xc, beta) -> System:
-        return cls(layout, profile, A, theta, xc, np.asarray(beta, float),
-                   build_squad(layout, profile, xc, theta))
+        beta = np.asarray(beta, float)
+        return cls.of(Batch.build(layout, profile, A, xc, layout.edges[None, :],
+                                  np.array([float(theta)]), beta[None, :]))
 
-    # shifted edges and polynomial helpers
+    @classmethod
+    def of(cls, batch: Batch) -> System:
+        """The System of a one-member batch."""
+        sq = batch.sq
+        return cls(batch.layout, batch.profile, batch.A, float(batch.theta[0]), batch.xc,
+                   batch.beta[0], SQuad(sq.s[0], sq.Omega[0], sq.absOmega[0], sq.dh[0]), batch)
+
     @property
     def e_hat(self) -> np.ndarray:
         return self.layout.edges - self.xc
 
-    @cached_property
-    def _poly_coeffs(self) -> np.ndarray | None:
-        """Coefficients (highest first) of ``Poly``, the polynomial part of ``1/W`` at infinity;
-        None when it vanishes (e > n)."""
-        lay = self.layout
-        deg = lay.n - lay.e
-        return series_coeffs(self.e_hat, lay.eps, -1.0, deg) if deg >= 0 else None
-
     def _polynomial_terms(self, xh: np.ndarray, H: np.ndarray) -> np.ndarray | float:
         """``pi H Poly(x) + T(x)`` at shifted points (0 when both vanish)."""
-        out: np.ndarray | float = 0.0
-        if self._poly_coeffs is not None:
-            out = np.pi * H * np.polyval(self._poly_coeffs, xh)
-        if self.beta.size:
-            out = out + np.polyval(self.beta[::-1], xh)
-        return out
+        xh, H = np.asarray(xh, float), np.asarray(H, float)
+        out = self.batch.polynomial_terms(xh.reshape(1, -1), H.reshape(1, -1))
+        return np.reshape(out, xh.shape) if isinstance(out, np.ndarray) else out
 
     def B(self, xh: np.ndarray, H: np.ndarray,
           dH: np.ndarray | Callable[[], np.ndarray] | None = None) -> np.ndarray:
-        """``B(x)`` at shifted points ``xh`` with subtraction values ``H`` (same shape).
-
-        Where a point coincides with a node (closer than 1e-13 relative) the divided difference
-        is replaced by its limit ``dH`` (an array, a callable giving it, or None for 0)."""
-        sq = self.sq
+        """``B(x)`` at shifted points ``xh`` with subtraction values ``H`` (same shape); see
+        :func:`cauchy_sums` for ``dH``."""
         xh = np.asarray(xh, float)
-        x, Hr = xh.ravel(), np.asarray(H, float).ravel()
-        diff = sq.s[None, :] - x[:, None]
-        q = sq.dh[None, :] - Hr[:, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            q /= diff
-        np.abs(diff, out=diff)
-        if x.size and diff.min() < 1e-13 * (1.0 + np.abs(x).max()):
-            small = diff < 1e-13 * (1.0 + np.abs(x[:, None]))
-            fill = np.zeros_like(x) if dH is None else np.asarray(
-                dH() if callable(dH) else dH, float).ravel()
-            q = np.where(small, np.broadcast_to(fill[:, None], q.shape), q)
-        val = q @ sq.Omega + self._polynomial_terms(x, Hr)
+        val = self.batch.B(xh.reshape(1, -1), np.asarray(H, float).reshape(1, -1), dH)
         return val.reshape(xh.shape)
 
     def W_real(self, x: np.ndarray) -> np.ndarray:
@@ -373,195 +802,34 @@ class System:
         O_out = w_out * sign_from_d(d_out) * w_abs(s_out, edges, -eps, skip)
         return np.concatenate([s_in, s_out]), np.concatenate([O_in, O_out])
 
-    # moments --------------------------------------------------------------------------------
+    # equations and gap integrals (the one-member batch) -------------------------------------
     def moments(self, jmax: int) -> np.ndarray:
         """``mu_j = sum s^j h' Omega`` for ``j <= jmax`` (shifted coordinate)."""
-        sq = self.sq
-        return (sq.s[None, :] ** np.arange(jmax + 1)[:, None]) @ self._dh_omega[0]
-
-    @cached_property
-    def _dh_omega(self) -> tuple[np.ndarray, np.ndarray]:
-        """``h' Omega`` at the nodes and its absolute value (scales of the sums)."""
-        sq = self.sq
-        return sq.dh * sq.Omega, np.abs(sq.dh) * sq.absOmega
-
-    def consistency_nodes(self) -> np.ndarray:
-        """Centres (shifted) of the ``e - n`` zones whose Lagrange polynomials span the
-        consistency conditions: a localised basis keeps the rows independent when the zones are
-        narrow and far apart (monomials ``s^j`` are then nearly dependent)."""
-        lay = self.layout
-        e, pinned = lay.edges.tolist(), lay.pinned.tolist()
-        free = [2 - pinned[2 * z] - pinned[2 * z + 1] for z in range(lay.n)]
-        order = sorted(range(lay.n), key=lambda z: -free[z])[:max(lay.e - lay.n, 0)]
-        return np.array(sorted(0.5 * (e[2 * z] + e[2 * z + 1]) - self.xc for z in order))
-
-    @cached_property
-    def _node_factors(self) -> tuple[np.ndarray, np.ndarray]:
-        """``s - c_j`` at the quadrature nodes for the consistency nodes ``c`` (columns)."""
-        c = self.consistency_nodes()
-        return c, self.sq.s[:, None] - c[None, :]
+        return self.batch.moments(jmax)[0]
 
     def consistency(self) -> tuple[np.ndarray, np.ndarray]:
-        """Consistency residuals ``int_L L_k(s) h'(s) omega(s) ds`` (paper Eq. 12) in the Lagrange
-        basis on :meth:`consistency_nodes`, and the absolute sums used to scale them."""
-        c, D = self._node_factors
-        cl = c.tolist()
-        L = np.ones(D.shape)
-        for j in range(len(cl)):
-            for m in range(len(cl)):
-                if m != j:
-                    L[:, j] *= D[:, m] * (1.0 / (cl[j] - cl[m]))
-        f, f_abs = self._dh_omega
-        return f @ L, f_abs @ np.abs(L)
+        """Consistency residuals and their scales (see :meth:`Batch.consistency`)."""
+        mu, norm = self.batch.consistency()
+        return mu[0], norm[0]
 
     def load(self) -> float:
-        """Total load: ``P = (1/A) int_L prod_k (s - c_k) h' omega ds`` for e >= n (the monic
-        degree-(e-n) polynomial; equal to ``mu_{e-n}/A`` once consistency holds) or
-        ``-beta_{n-e-1}/A`` for e < n."""
-        lay = self.layout
-        if lay.e < lay.n:
-            return float(-self.beta[lay.n - lay.e - 1] / self.A)
-        _, D = self._node_factors
-        poly = np.prod(D, axis=1) if D.shape[1] else np.ones(D.shape[0])
-        return float(poly @ self._dh_omega[0] / self.A)
-
-    def w1(self) -> float:
-        lay = self.layout
-        return float(series_coeffs(self.e_hat, lay.eps, 1.0, 1)[1])
+        return float(self.batch.load()[0])
 
     def load_and_moment(self) -> tuple[float, float]:
         """Total load and moment about x = 0 implied by the current state (closed forms)."""
-        lay, A = self.layout, self.A
-        n, e = lay.n, lay.e
-        if e >= n:
-            mu = self.moments(e - n + 1)
-            P = self.load()
-            Mc = (mu[e - n + 1] + self.w1() * mu[e - n]) / A
-        else:
-            beta = self.beta
-            P = -beta[n - e - 1] / A
-            lower = beta[n - e - 2] if n - e - 2 >= 0 else 0.0
-            mu0 = self.moments(0)[0] if e == n - 1 else 0.0
-            Mc = -(lower + self.w1() * beta[n - e - 1] - mu0) / A
-        return float(P), float(Mc + self.xc * P)
+        P, M = self.batch.load_and_moment()
+        return float(P[0]), float(M[0])
 
-    # gap integrals -----------------------------------------------------------------------------
-    @cached_property
-    def edge_pieces(self) -> list[Piece]:
-        """Profile piece on the zone side of each edge (its continuation is used near the edge)."""
-        el = self.layout.edges.tolist()
-        if self.profile.global_piece is not None:
-            return [self.profile.global_piece] * len(el)
-        probes = np.array([x + (1.0 if i % 2 == 0 else -1.0) * 1e-9
-                           * max(self.profile.scale, abs(x), 1e-300) for i, x in enumerate(el)])
-        ks = self.profile.piece_index(probes).tolist()
-        return [self.profile.pieces[max(k, 0)] for k in ks]
-
-    @cached_property
-    def _edge_clearances(self) -> list[float]:
-        """Distance from each edge to the nearest other edge."""
-        el = self.layout.edges.tolist()
-        return [min([abs(x - y) for j, y in enumerate(el) if j != i], default=math.inf)
-                for i, x in enumerate(el)]
+    def interconnections(self) -> np.ndarray:
+        """Rigid interconnection residuals (paper Eq. 17, see :meth:`Batch.interconnections`)."""
+        return self.batch.interconnections()[0]
 
     def gaps_from_edges(self, idx: np.ndarray, x_to: np.ndarray, h_to: np.ndarray) -> np.ndarray:
         """Deformed gap at ``x_to[j]`` (where ``h = h_to[j]``), integrated from edge ``idx[j]``
         (``g = 0`` there) on the outer side: ``g = h(x) - h(x0) + int_{x0}^{x} w'`` with
-        ``int w' = S - (h(x_e) - h(x0))`` (see :meth:`_gap_sums`), so ``g = h(x) - h(x_e) + S``.
-        One evaluation of B for all points."""
-        S, ends = self._gap_sums(idx, x_to)
-        return h_to - self._h_at(ends) + S
-
-    def _gap_sums(self, idx: np.ndarray, x_to: np.ndarray) -> tuple[np.ndarray, list]:
-        """``int g'`` from edge ``idx[j]`` to ``x_to[j]`` and the (piece, end) of its graded part.
-
-        Near its edge (up to half-way to the end of the edge piece's continuation) an integral
-        uses a rule graded towards the edge, with the edge factor of W in the weight and the
-        piece's continuation as the subtraction value (so ``int w' = S - [h]`` over that part);
-        beyond, plain Gauss-Legendre segments.  All points share one evaluation of B.
-        """
-        pairs = list(zip(np.asarray(idx).tolist(), np.asarray(x_to, float).tolist(), strict=True))
-        near = [self._near_rule(i, xt) for i, xt in pairs]
-        parts = [pt[:4] for pt in near] + [self._far_rule(i, xt) for i, xt in pairs]
-        ends = [(pt[4], pt[5]) for pt in near]
-        counts = [pt[0].size for pt in parts]
-        if sum(counts) == 0:
-            return np.zeros(len(pairs)), ends
-        x, w, H = (np.concatenate([pt[k] for pt in parts]) for k in (0, 1, 2))
-        own = np.repeat([pt[3] for pt in parts], counts)
-        logs = np.log(np.abs(x[:, None] - self.layout.edges[None, :]))
-        rows = np.flatnonzero(own >= 0)
-        logs[rows, own[rows]] = 0.0  # the edge's own factor is in the graded rule's weight
-        lay = self.layout
-        sign = sign_from_d((lay.edges[None, :] > x[:, None]) @ np.where(lay.pinned, -1, 1))
-
-        def curvature() -> np.ndarray:  # only needed where a point meets a node
-            return np.concatenate([near[j][4].d2h(pt[0]) if j < len(near) else 0.0 * pt[0]
-                                   for j, pt in enumerate(parts)])
-
-        vals = w * sign * np.exp(logs @ lay.eps) * self.B(x - self.xc, H, curvature) / np.pi
-        sums = np.bincount(np.repeat(np.arange(len(parts)), counts), vals, len(parts))
-        return sums[: len(pairs)] + sums[len(pairs):], ends
-
-    def _h_at(self, ends: list) -> np.ndarray:
-        """``h = h0 - theta x`` at the end of each graded part, from that part's piece."""
-        return np.array([float(pc.h(np.array([x]))[0]) - self.theta * x for pc, x in ends])
-
-    @cached_property
-    def _edge_reach(self) -> list[tuple[float, Piece, float]]:
-        """Per edge: position, piece, and how far out its graded part may go (half-way to the
-        end of the piece's continuation)."""
-        out = []
-        for i, (x0, pc) in enumerate(zip(self.layout.edges.tolist(), self.edge_pieces,
-                                         strict=True)):
-            reach = pc.reach[1] if i % 2 == 1 else pc.reach[0]
-            out.append((x0, pc, 0.5 * abs(reach - x0) if math.isfinite(reach) else math.inf))
-        return out
-
-    def _near_extent(self, i: int, x_to: float) -> tuple[float, float, Piece]:
-        """Length of the graded part towards ``x_to``, its direction, and the edge piece."""
-        x0, pc, lim = self._edge_reach[i]
-        return min(abs(x_to - x0), lim), (1.0 if x_to >= x0 else -1.0), pc
-
-    def _near_rule(self, i: int, x_to: float):
-        """Points, weights (direction included), H and own edge of the graded part of one
-        integral, with its piece and end."""
-        x0 = float(self.layout.edges[i])
-        length, direction, pc = self._near_extent(i, x_to)
-        if length <= 0:
-            empty = np.zeros(0)
-            return empty, empty, empty, i, pc, x0
-        t, w = graded_rule(length, self._edge_clearances[i], float(self.layout.eps[i]))
-        x = x0 + direction * t
-        x_end = x_to if length == abs(x_to - x0) else x0 + direction * length
-        return x, direction * w, pc.dh(x) - self.theta, i, pc, x_end
-
-    def _far_rule(self, i: int, x_to: float, n: int = 48):
-        """Gauss-Legendre points and weights of the plain part (beyond the graded one), H = 0."""
-        x0 = float(self.layout.edges[i])
-        length, direction, _ = self._near_extent(i, x_to)
-        if abs(x_to - x0) <= length * (1 + 1e-14):
-            empty = np.zeros(0)
-            return empty, empty, empty, -1
-        x, w = mapped_rule(x0 + direction * length, x_to, 0.0, 0.0, n) if direction > 0 else \
-            mapped_rule(x_to, x0 + direction * length, 0.0, 0.0, n)
-        return x, direction * w, np.zeros(n), -1
-
-    def interconnections(self) -> np.ndarray:
-        """Rigid interconnection residuals between neighbouring zones (paper Eq. 17), all gaps:
-        ``h(a) - h(b) + int_b^mid w' - int_a^mid w' = S_b - S_a + [h]`` where ``[h]``, the jump
-        of h between the ends of the two graded parts, vanishes when both reach the midpoint on
-        the same piece."""
-        n = self.layout.n
-        if n < 2:
-            return np.zeros(0)
-        e = self.layout.edges
-        ib = 2 * np.arange(n - 1) + 1
-        ia = ib + 1
-        mid = 0.5 * (e[ib] + e[ia])
-        S, ends = self._gap_sums(np.concatenate([ib, ia]), np.concatenate([mid, mid]))
-        jump = np.array([0.0 if (pb is pa and xb == xa) else self._h_at([(pa, xa), (pb, xb)])
-                         @ np.array([1.0, -1.0]) for (pb, xb), (pa, xa)
-                         in zip(ends[: n - 1], ends[n - 1:], strict=True)])
-        return S[: n - 1] - S[n - 1:] + jump
-
+        ``int w' = S - (h(x_e) - h(x0))`` (see :meth:`Batch.gap_sums`), so
+        ``g = h(x) - h(x_e) + S``.  One evaluation of B for all points."""
+        x_to = np.asarray(x_to, float)
+        plan = self.batch.gap_plan(np.asarray(idx).tolist(), x_to.tolist())
+        S, ends = self.batch.gap_sums(plan, x_to[None, :])
+        return h_to - self.batch.h_at(ends, plan.pieces)[0] + S[0]

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from analytic._guess import overlap_guess
-from analytic._sie import Layout, System
+from analytic._sie import Batch, Layout, System
 from analytic.errors import ConvergenceError, InputError
 from analytic.profiles import Profile
 
@@ -181,21 +181,29 @@ def _unpack(z: np.ndarray, st: _State, mode: _Mode, A: float) -> _State:
 
 def _residual(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[np.ndarray, System]:
     lay = st.layout
-    sys_ = System.build(lay, profile, A, st.theta, st.xc, st.beta)
+    batch = Batch.build(lay, profile, A, st.xc, lay.edges[None, :], np.array([st.theta]),
+                        st.beta[None, :])
+    return _rows(batch, st, mode)[0], System.of(batch)
+
+
+def _rows(batch: Batch, st: _State, mode: _Mode) -> np.ndarray:
+    """Scaled residuals ``(K, equations)`` of every member of ``batch`` (``st`` gives the load
+    and length scales): consistency (Eq. 12/14), equilibrium, interconnection (Eq. 17), moment."""
+    lay, A = batch.layout, batch.A
     n, e = lay.n, lay.e
-    rows: list[float] = []
     P_ref = mode.P if mode.P is not None else max(abs(st.P), 1e-300)
-    slope = float(np.abs(sys_.sq.dh).sum()) / max(sys_.sq.dh.size, 1)
+    slope = np.mean(np.abs(batch.sq.dh), axis=1)
     g_scale = A * P_ref + slope * st.ell + 1e-300
+    rows = []
     if e > n:
-        mu, norm = sys_.consistency()
-        rows.extend(mu / (norm + 1e-300))
+        mu, norm = batch.consistency()
+        rows.append(mu / (norm + 1e-300))
     if mode.P is not None and e >= n:
-        rows.append(sys_.load() / mode.P - 1.0)
-    rows.extend(sys_.interconnections() / g_scale)
+        rows.append(batch.load()[:, None] / mode.P - 1.0)
+    rows.append(batch.interconnections() / g_scale[:, None])
     if mode.M is not None:
-        rows.append((sys_.load_and_moment()[1] - mode.M) / (P_ref * st.ell))
-    return np.asarray(rows, float), sys_
+        rows.append((batch.load_and_moment()[1][:, None] - mode.M) / (P_ref * st.ell))
+    return np.concatenate(rows, axis=1)
 
 
 def _feasible(st: _State, profile: Profile) -> bool:
@@ -283,19 +291,23 @@ def _fd_steps(z: np.ndarray, st: _State, mode: _Mode) -> np.ndarray:
 
 
 def _jacobian(z, F, st, mode, profile, A) -> np.ndarray:
-    J = np.empty((F.size, z.size))
+    """Forward differences, all columns in one batch evaluation with the discretisation frozen
+    on the current layout (the base point is evaluated in the same batch)."""
     steps = _fd_steps(z, st, mode)
+    states = [st]
     for j in range(z.size):
-        h = steps[j]
         zp = z.copy()
-        zp[j] += h
+        zp[j] += steps[j]
         trial = _unpack(zp, st, mode, A)
         if not _feasible(trial, profile):
-            h, zp = -h, z.copy()
-            zp[j] += h
+            steps[j] = -steps[j]
+            zp[j] = z[j] + steps[j]
             trial = _unpack(zp, st, mode, A)
-        J[:, j] = (_residual(trial, mode, profile, A)[0] - F) / h
-    return J
+        states.append(trial)
+    batch = Batch.build(st.layout, profile, A, st.xc, np.array([q.layout.edges for q in states]),
+                        np.array([q.theta for q in states]), np.array([q.beta for q in states]))
+    R = _rows(batch, st, mode)
+    return ((R[1:] - R[0]) / steps[:, None]).T
 
 
 def _line_search(st, z, dz, norm, mode, profile, A):
