@@ -24,8 +24,10 @@ from analytic.profiles import Profile
 
 NEWTON_TOL = 1e-13          # scaled residual; edges then agree to ~1e-12 relative
 NEWTON_MAXIT = 40
+STEP_TOL = 1e-12            # ... and the next Newton step moves no unknown (edges / span) more
+POLISH_STEPS = 3            # steps allowed beyond NEWTON_TOL to meet STEP_TOL
 FLOOR_TOL = 1e-10          # accepted when rounding stalls Newton (zones ~1e-6 of the span)
-REFRESH_RATIO = 0.3         # a reused Jacobian gaining less than this per step is refreshed
+REFRESH_RATIO = 0.1         # a reused Jacobian gaining less than this per step is refreshed
 FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
 ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
 MAX_TOPOLOGY_CHANGES = 12
@@ -243,24 +245,31 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
     if not np.isfinite(norm):
         raise _NewtonFailed("non-finite residual at the start", {"residual": norm})
     J = st.jac if st.jac is not None and st.jac.shape == (F.size, z.size) else None
-    fresh = False
+    fresh, polish = False, 0
     for it in range(NEWTON_MAXIT):
         if norm < NEWTON_TOL:
-            break
-        if J is None:
-            J, fresh = _jacobian(z, F, st, mode, profile, A), True
-        try:
-            dz = np.linalg.solve(J, -F)
-        except np.linalg.LinAlgError as exc:
-            if not fresh:
-                J = None
-                continue
-            raise _NewtonFailed("singular Jacobian", {"residual": norm, "iteration": it}) from exc
+            dz = _polish_step(J, F) if polish < POLISH_STEPS else None
+            if dz is None:
+                break
+            polish += 1
+        else:
+            if J is None:
+                J, fresh = _jacobian(z, F, st, mode, profile, A), True
+            try:
+                dz = np.linalg.solve(J, -F)
+            except np.linalg.LinAlgError as exc:
+                if not fresh:
+                    J = None
+                    continue
+                raise _NewtonFailed("singular Jacobian",
+                                    {"residual": norm, "iteration": it}) from exc
         trial, zt, Ft, nt = _line_search(st, z, dz, norm, mode, profile, A)
-        if nt > REFRESH_RATIO * norm and not fresh:
+        if polish and not nt < NEWTON_TOL:
+            break  # the polishing step would leave the converged set: keep the state
+        if not polish and nt > REFRESH_RATIO * norm and not fresh:
             J = None  # stale Jacobian: refresh and retry from the same point
             continue
-        if nt > 0.5 * norm and norm < FLOOR_TOL:
+        if not polish and nt > 0.5 * norm and norm < FLOOR_TOL:
             break  # rounding floor reached with a fresh Jacobian: accept
         if nt >= norm and nt > FLOOR_TOL:
             raise _NewtonFailed("no descent", {"residual": norm, "iteration": it})
@@ -278,6 +287,18 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
                                                         "iteration": NEWTON_MAXIT})
     st.jac = J
     return st, F
+
+
+def _polish_step(J: np.ndarray | None, F: np.ndarray) -> np.ndarray | None:
+    """The Newton step from a state that meets NEWTON_TOL, when it would still move an unknown
+    by more than STEP_TOL (an ill-conditioned system, e.g. zones about to merge); else None."""
+    if J is None:
+        return None
+    try:
+        dz = np.linalg.solve(J, -F)
+    except np.linalg.LinAlgError:
+        return None
+    return dz if np.max(np.abs(dz)) > STEP_TOL else None
 
 
 def _fd_steps(z: np.ndarray, st: _State, mode: _Mode) -> np.ndarray:
@@ -621,21 +642,23 @@ class _StepFailed(Exception):
     pass
 
 
+PREDICTOR_POINTS = 8  # states of one topology the predictor may extrapolate through
+
+
 def _predict(st: _State, prev: tuple[_State, ...], P_next: float, profile: Profile) -> _State:
-    """Edges at P_next extrapolated in log P through the current state and up to three earlier
-    states of the same topology (up to cubic when four are at hand); a square-root widening of
-    every zone when there is no history."""
+    """Edges at P_next extrapolated in log P through the current state and up to
+    ``PREDICTOR_POINTS - 1`` earlier states of the same topology, with the degree chosen where
+    the extrapolation's last correction is smallest (:func:`_extrapolate`); a square-root
+    widening of every zone when there is no history."""
     edges = st.layout.edges.copy()
     free = ~st.layout.pinned
     same = [q for q in prev if q.layout.edges.shape == edges.shape
             and np.array_equal(q.layout.pinned, st.layout.pinned) and q.P != st.P]
-    if same:
-        pts = [st, *same[:3]]
-        u = [math.log(q.P) for q in pts]
-        if len(set(u)) < len(u):
-            pts, u = pts[:2], u[:2]
-        guess = sum(_lagrange_weight(u, j, math.log(P_next)) * q.layout.edges
-                    for j, q in enumerate(pts))
+    u = [math.log(q.P) for q in [st, *same[:PREDICTOR_POINTS - 1]]]
+    if same and len(set(u)) == len(u):
+        guess = _extrapolate(u, [q.layout.edges for q in [st, *same]], math.log(P_next))
+    elif same:
+        guess = _extrapolate(u[:2], [st.layout.edges, same[0].layout.edges], math.log(P_next))
     else:
         z = edges.reshape(-1, 2)
         mid = z.mean(1, keepdims=True)
@@ -649,13 +672,21 @@ def _predict(st: _State, prev: tuple[_State, ...], P_next: float, profile: Profi
     return new
 
 
-def _lagrange_weight(u: list[float], j: int, at: float) -> float:
-    """Weight of node j in the Lagrange interpolant through the nodes u, evaluated at ``at``."""
-    w = 1.0
-    for m, um in enumerate(u):
-        if m != j:
-            w *= (at - um) / (u[j] - um)
-    return w
+def _extrapolate(u: list[float], y: list[np.ndarray], at: float) -> np.ndarray:
+    """Polynomial extrapolation to ``at`` through ``(u_j, y_j)`` (nearest first) by Neville's
+    table: the estimates of degree 0, 1, ... use the nearest points first, and the one whose
+    correction over the degree below is smallest is returned (beyond it the corrections grow:
+    the path's own singularities or the states' rounding take over)."""
+    row = [np.asarray(v, float) for v in y[: len(u)]]
+    best, best_change = row[0], math.inf
+    for d in range(1, len(u)):
+        row = [((at - u[i + d]) * row[i] - (at - u[i]) * row[i + 1]) / (u[i] - u[i + d])
+               for i in range(len(row) - 1)]
+        change = float(np.max(np.abs(row[0] - best)))
+        if change >= best_change and d > 1:
+            break
+        best, best_change = row[0], change
+    return best
 
 
 def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[_State, System]:
@@ -757,7 +788,7 @@ def _continue(st: _State, P_target: float, profile: Profile, A: float,
                                        {"P_reached": st.P, "P_target": P_target,
                                         "zones": st.layout.zones()}) from exc
             continue
-        prev, st = (st, *prev[:2]), new
+        prev, st = (st, *prev[:PREDICTOR_POINTS - 2]), new
         if P_next == P_target:
             return st, sys_, prev
         ratio = min(ratio * ratio, 16.0)
@@ -964,8 +995,13 @@ def _phi(sys_: System, z: np.ndarray) -> np.ndarray:
     W = np.prod(np.where(lay.pinned[None, :], 1.0 / roots, roots), axis=1)
     sq = sys_.sq
     zh = z - sys_.xc
-    kernel = sq.s[None, :] - zh[:, None]
-    np.reciprocal(kernel, out=kernel)  # in place: a fresh complex reciprocal is 4x slower
-    cauchy = kernel @ (sq.dh * sq.Omega)
+    # sum f/(s - z) in real arithmetic: 1/(s - z) = (s - x + i y)/((s - x)^2 + y^2), z = x + iy
+    dx = sq.s[None, :] - zh.real[:, None]
+    inv = dx * dx
+    inv += (zh.imag**2)[:, None]
+    np.reciprocal(inv, out=inv)
+    f = sq.dh * sq.Omega
+    dx *= inv
+    cauchy = dx @ f + 1j * zh.imag * (inv @ f)
     T = np.polyval(sys_.beta[::-1], zh) if sys_.beta.size else 0.0
     return W * (cauchy + T) / (2j * np.pi * sys_.A)

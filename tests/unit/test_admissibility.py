@@ -68,3 +68,25 @@ def test_predictor_is_exact_for_edges_cubic_in_log_load() -> None:
                             0.0, P, 0.0, 2.0) for P in loads]
     pred = normal._predict(states[-1], tuple(states[-2::-1]), target, prof)
     np.testing.assert_allclose(pred.layout.edges, edges(target), rtol=1e-12)
+
+
+def test_predictor_raises_its_degree_while_the_corrections_shrink() -> None:
+    """Eight states on a quintic path in log P: the quintic is reproduced; a linear-only
+    history (two states) gives the secant."""
+    prof = profiles.cylinder(1.0)
+    loads = [0.1 * 1.1**k for k in range(8)]
+    target = loads[-1] * 1.1
+
+    def edges(P: float) -> np.ndarray:
+        u = np.log(P) + 2.0
+        return np.array([-1.0 - 0.1 * u + 0.02 * u**5, 1.0 + 0.2 * u + 0.03 * u**4])
+
+    states = [normal._State(analytic._sie.Layout(edges(P), np.zeros(2, bool)), np.zeros(0),
+                            0.0, P, 0.0, 2.0) for P in loads]
+    pred = normal._predict(states[-1], tuple(states[-2::-1]), target, prof)
+    np.testing.assert_allclose(pred.layout.edges, edges(target), rtol=1e-10)
+    secant = normal._predict(states[-1], (states[-2],), target, prof)
+    w = (np.log(target) - np.log(loads[-2])) / (np.log(loads[-1]) - np.log(loads[-2]))
+    np.testing.assert_allclose(secant.layout.edges,
+                               (1 - w) * edges(loads[-2]) + w * edges(loads[-1]), rtol=1e-13)
+    assert np.max(np.abs(secant.layout.edges - edges(target))) > 1e-6  # the test has teeth
