@@ -254,13 +254,6 @@ def squad_nodes(plan: SquadPlan, profile: Profile, edges: np.ndarray, xc: float,
     return SQuad(s - xc, Om, np.abs(Om), dh)
 
 
-def build_squad(layout: Layout, profile: Profile, xc: float, theta: float) -> SQuad:
-    """The zone quadrature of one layout (1-D arrays)."""
-    sq = squad_nodes(squad_plan(layout, profile), profile, layout.edges[None, :], xc,
-                     np.array([theta]))
-    return SQuad(sq.s[0], sq.Omega[0], sq.absOmega[0], sq.dh[0])
-
-
 def _segment_slopes(plan: SquadPlan, profile: Profile, s: np.ndarray) -> np.ndarray:
     """``h0'`` at the nodes ``(K, N)``.  Segments end at zone edges and kinks, and every piece
     boundary inside the support is a kink or a corner, so each segment lies in one piece."""
@@ -306,10 +299,12 @@ def cauchy_sums(sq: SQuad, xh: np.ndarray, H: np.ndarray,
     replaced by its limit ``dH`` (an array, a callable giving it, or None for 0); the check is
     skipped for points known to lie outside the zones (``off_nodes``)."""
     if xh.shape[0] > 1:  # member by member: one member's matrix stays in cache
+        fill = None if dH is None else np.asarray(dH() if callable(dH) else dH,
+                                                  float).reshape(xh.shape)
         return np.concatenate([cauchy_sums(
             SQuad(sq.s[k:k + 1], sq.Omega[k:k + 1], sq.absOmega[k:k + 1], sq.dh[k:k + 1]),
-            xh[k:k + 1], H[k:k + 1], None if dH is None else (lambda k=k: _row(dH, k, xh.shape)),
-            off_nodes) for k in range(xh.shape[0])])
+            xh[k:k + 1], H[k:k + 1], None if fill is None else fill[k:k + 1], off_nodes)
+            for k in range(xh.shape[0])])
     diff = sq.s[0][None, :] - xh[0][:, None]
     q = sq.dh[0][None, :] - H[0][:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -323,10 +318,6 @@ def cauchy_sums(sq: SQuad, xh: np.ndarray, H: np.ndarray,
                 dH() if callable(dH) else dH, float).reshape(xh.shape)[0]
             q = np.where(small, np.broadcast_to(fill[:, None], q.shape), q)
     return (q @ sq.Omega[0])[None, :]
-
-
-def _row(dH: np.ndarray | Callable[[], np.ndarray], k: int, shape: tuple) -> np.ndarray:
-    return np.asarray(dH() if callable(dH) else dH, float).reshape(shape)[k]
 
 
 FAR_NODES = 48
@@ -434,7 +425,6 @@ def _part_arrays(structure: tuple) -> tuple:
     return edge, direction, reach, tuple(s[3] for s in structure), tuple(s[6] for s in structure)
 
 
-
 @dataclass(frozen=True)
 class Batch:
     """The equations of one contact topology for K edge sets at once (paper Eqs. 12/14, 17,
@@ -456,13 +446,13 @@ class Batch:
 
     @classmethod
     def build(cls, layout: Layout, profile: Profile, A: float, xc: float, edges: np.ndarray,
-              theta: np.ndarray, beta: np.ndarray, plan: SquadPlan | None = None) -> Batch:
-        plan = squad_plan(layout, profile) if plan is None else plan
+              theta: np.ndarray, beta: np.ndarray) -> Batch:
+        """The batch with the quadrature planned on ``layout``."""
         edges, theta = np.atleast_2d(edges), np.atleast_1d(np.asarray(theta, float))
         beta = np.asarray(beta, float)
         beta = beta.reshape(edges.shape[0], beta.size // edges.shape[0])
         return cls(layout, profile, A, xc, edges, theta, beta,
-                   squad_nodes(plan, profile, edges, xc, theta))
+                   squad_nodes(squad_plan(layout, profile), profile, edges, xc, theta))
 
     @property
     def size(self) -> int:
@@ -658,6 +648,7 @@ class Batch:
                 out[:, m] += h[:, 0] - h[:, 1]
         return out
 
+
 def consistency_zones(layout: Layout) -> np.ndarray:
     """The ``e - n`` zones whose centres carry the Lagrange basis of the consistency conditions:
     those with the most nonsingular edges (ties: leftmost), in order of x."""
@@ -693,19 +684,11 @@ class System:
     @classmethod
     def build(cls, layout, profile, A, theta, xc, beta) -> System:
         beta = np.asarray(beta, float)
-        return cls.of(Batch.build(layout, profile, A, xc, layout.edges[None, :],
-                                  np.array([float(theta)]), beta[None, :]))
-
-    @classmethod
-    def of(cls, batch: Batch) -> System:
-        """The System of a one-member batch."""
+        batch = Batch.build(layout, profile, A, xc, layout.edges[None, :],
+                            np.array([float(theta)]), beta[None, :])
         sq = batch.sq
-        return cls(batch.layout, batch.profile, batch.A, float(batch.theta[0]), batch.xc,
-                   batch.beta[0], SQuad(sq.s[0], sq.Omega[0], sq.absOmega[0], sq.dh[0]), batch)
-
-    @property
-    def e_hat(self) -> np.ndarray:
-        return self.layout.edges - self.xc
+        return cls(layout, profile, A, float(theta), xc, beta,
+                   SQuad(sq.s[0], sq.Omega[0], sq.absOmega[0], sq.dh[0]), batch)
 
     def _polynomial_terms(self, xh: np.ndarray, H: np.ndarray) -> np.ndarray | float:
         """``pi H Poly(x) + T(x)`` at shifted points (0 when both vanish)."""

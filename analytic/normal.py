@@ -182,10 +182,8 @@ def _unpack(z: np.ndarray, st: _State, mode: _Mode, A: float) -> _State:
 
 
 def _residual(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[np.ndarray, System]:
-    lay = st.layout
-    batch = Batch.build(lay, profile, A, st.xc, lay.edges[None, :], np.array([st.theta]),
-                        st.beta[None, :])
-    return _rows(batch, st, mode)[0], System.of(batch)
+    sys_ = System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
+    return _rows(sys_.batch, st, mode)[0], sys_
 
 
 def _rows(batch: Batch, st: _State, mode: _Mode) -> np.ndarray:
@@ -654,11 +652,12 @@ def _predict(st: _State, prev: tuple[_State, ...], P_next: float, profile: Profi
     free = ~st.layout.pinned
     same = [q for q in prev if q.layout.edges.shape == edges.shape
             and np.array_equal(q.layout.pinned, st.layout.pinned) and q.P != st.P]
-    u = [math.log(q.P) for q in [st, *same[:PREDICTOR_POINTS - 1]]]
-    if same and len(set(u)) == len(u):
-        guess = _extrapolate(u, [q.layout.edges for q in [st, *same]], math.log(P_next))
-    elif same:
-        guess = _extrapolate(u[:2], [st.layout.edges, same[0].layout.edges], math.log(P_next))
+    if same:
+        pts = [st, *same[:PREDICTOR_POINTS - 1]]
+        u = [math.log(q.P) for q in pts]
+        if len(set(u)) < len(u):
+            pts, u = pts[:2], u[:2]
+        guess = _extrapolate(u, [q.layout.edges for q in pts], math.log(P_next))
     else:
         z = edges.reshape(-1, 2)
         mid = z.mean(1, keepdims=True)
@@ -677,7 +676,7 @@ def _extrapolate(u: list[float], y: list[np.ndarray], at: float) -> np.ndarray:
     table: the estimates of degree 0, 1, ... use the nearest points first, and the one whose
     correction over the degree below is smallest is returned (beyond it the corrections grow:
     the path's own singularities or the states' rounding take over)."""
-    row = [np.asarray(v, float) for v in y[: len(u)]]
+    row = [np.asarray(v, float) for v in y]
     best, best_change = row[0], math.inf
     for d in range(1, len(u)):
         row = [((at - u[i + d]) * row[i] - (at - u[i]) * row[i + 1]) / (u[i] - u[i + d])
