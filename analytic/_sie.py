@@ -105,17 +105,28 @@ class Layout:
 
     @property
     def e(self) -> int:
-        return int(np.count_nonzero(~self.pinned))
+        """Number of nonsingular edges."""
+        return _edge_flags(self.pinned.tobytes())[0]
 
     @property
     def eps(self) -> np.ndarray:
-        return np.where(self.pinned, -0.5, 0.5)
+        """Exponent of each edge in W: +1/2 nonsingular, -1/2 singular (read-only)."""
+        return _edge_flags(self.pinned.tobytes())[1]
 
     def zones(self) -> list[tuple[float, float]]:
         return [(float(a), float(b)) for a, b in self.edges.reshape(-1, 2)]
 
     def with_edges(self, edges: np.ndarray) -> Layout:
         return Layout(np.asarray(edges, float), self.pinned)
+
+
+@lru_cache(maxsize=256)
+def _edge_flags(pinned: bytes) -> tuple[int, np.ndarray]:
+    """``e`` and the read-only exponents ``eps`` of the singular flags ``pinned`` (as bytes)."""
+    flags = np.frombuffer(pinned, dtype=bool)
+    eps = np.where(flags, -0.5, 0.5)
+    eps.flags.writeable = False
+    return int(np.count_nonzero(~flags)), eps
 
 
 def sign_exponent(x: np.ndarray, edges: np.ndarray, pinned: np.ndarray) -> np.ndarray:
@@ -243,7 +254,8 @@ def squad_nodes(plan: SquadPlan, profile: Profile, edges: np.ndarray, xc: float,
     ``(K, N)`` arrays; ``Omega`` is the weight times the rest of ``omega = 1/W_s`` (one log-sum
     for all nodes)."""
     K = edges.shape[0]
-    ends = np.concatenate([edges, np.broadcast_to(plan.kinks, (K, plan.kinks.size))], axis=1)
+    ends = np.concatenate([edges, np.broadcast_to(plan.kinks, (K, plan.kinks.size))], axis=1) \
+        if plan.kinks.size else edges
     lo, hi = ends[:, plan.lo], ends[:, plan.hi]
     half = 0.5 * (hi - lo)
     s = (0.5 * (lo + hi))[:, plan.seg] + half[:, plan.seg] * plan.t
@@ -361,6 +373,12 @@ class GapPlan:
         a, c = (np.concatenate([per_part * m[i] for i in range(3)]) for m in (self.a, self.c))
         b = np.concatenate([per_part * self.b[0], 0.0 * per_part, 0.0 * per_part])
         return a, c, b, self.edge[self.part], self.direction[self.part]
+
+    @cached_property
+    def graded(self) -> tuple[np.ndarray, np.ndarray]:
+        """The graded nodes and the edge whose factor their weight holds."""
+        rows = np.flatnonzero(self.own >= 0)
+        return rows, self.own[rows]
 
 
 def _graded_part(n_first: int, n_graded: int) -> list[tuple]:
@@ -574,16 +592,19 @@ class Batch:
         """The structure of the integrals from edges ``idx`` to ``x_to``, sized on member 0; each
         target lies in the gap (or the outer region) on the outer side of its edge."""
         eps = self.layout.eps.tolist()
+        el = self.edges[0].tolist()
+        pieces = self.edge_pieces
         structure = []
         for i, xt in zip(idx, x_to, strict=True):
-            x0 = float(self.edges[0, i])
-            pc = self.edge_pieces[i]
+            x0 = el[i]
+            pc = pieces[i]
             reach = pc.reach[1] if i % 2 == 1 else pc.reach[0]
             dist = abs(xt - x0)
             length = min(dist, 0.5 * abs(reach - x0))
             n_first = n_graded = 0
             if length > 0:
-                c = float(self._edge_clearances[0, i])
+                c = min(x0 - el[i - 1] if i > 0 else math.inf,
+                        el[i + 1] - x0 if i + 1 < len(el) else math.inf)
                 first = min(length, max(c, 1e-300))
                 n_first = nodes_for(first, c)
                 lo = first
@@ -613,8 +634,7 @@ class Batch:
         for pc, nodes in plan.groups:
             H[:, nodes] = pc.dh(x[:, nodes]) - self.theta[:, None]
         logs = np.log(np.abs(x[:, :, None] - self.edges[:, None, :]))
-        rows = np.flatnonzero(plan.own >= 0)
-        logs[:, rows, plan.own[rows]] = 0.0  # the edge's own factor is in the graded weight
+        logs[(slice(None), *plan.graded)] = 0.0  # the edge's own factor is in the graded weight
         vals = w * np.exp(logs @ self.layout.eps) * self.B(x - self.xc, H, off_nodes=True)
         return (vals @ plan.sums) / np.pi, ends
 
@@ -634,10 +654,9 @@ class Batch:
         if n < 2:
             return np.zeros((self.size, 0))
         e = self.edges
-        ib = 2 * np.arange(n - 1) + 1
-        mid = 0.5 * (e[:, ib] + e[:, ib + 1])
+        mid = 0.5 * (e[:, 1:-1:2] + e[:, 2:-1:2])
         x_to = np.concatenate([mid, mid], axis=1)
-        plan = self.gap_plan([*ib.tolist(), *(ib + 1).tolist()], x_to[0].tolist())
+        plan = self.gap_plan([*range(1, 2 * n - 2, 2), *range(2, 2 * n - 1, 2)], x_to[0].tolist())
         S, ends = self.gap_sums(plan, x_to)
         out = S[:, : n - 1] - S[:, n - 1:]
         pcs = plan.pieces

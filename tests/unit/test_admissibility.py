@@ -10,6 +10,7 @@ import pytest
 
 import analytic
 from analytic import normal, profiles
+from analytic._sie import Layout
 
 
 @pytest.fixture
@@ -52,6 +53,42 @@ def test_slope_minima_finds_the_turn_and_the_falling_ends() -> None:
     assert out[0] == 0.0 and out[1] == pytest.approx(0.55)
     assert normal._slope_minima(x, -np.ones(11)).tolist() == [0.0, 1.0]
     assert normal._slope_minima(x, np.ones(11)).size == 0
+    # a run across a gap ends at the next zone's edge (g = 0): falling into it needs no sample
+    assert normal._slope_minima(x, -np.ones(11), end_at_edge=True).tolist() == [0.0]
+
+
+def test_gap_falling_into_the_next_zone_is_not_sampled() -> None:
+    """Between two zones g falls towards the right zone's edge (g = 0 there): the healthy gap
+    of the bi-quadratic punch needs no integral for g, while a gap that falls away from the
+    left zone's edge is still sampled next to it."""
+    sol = analytic.solve_normal(profiles.biquadratic(1.0, 1.0), 0.4, 1.0)
+    st = normal._fresh_state(sol._system.layout, 0.0, sol.P)
+    assert normal._gap_candidates(st, sol._system, sol.profile).size == 0
+    (_, b1), (a2, _) = sol.zones
+    cands = normal._gap_candidates(st, _with_slope(sol._system, -1.0), sol.profile)
+    inner = cands[(cands > b1) & (cands < a2)]
+    assert inner.size == 1 and inner[0] - b1 < 1e-2 * (a2 - b1)
+
+
+@pytest.mark.parametrize("gap", [1.0, 1e-2, 1e-5])
+def test_zone_ellipse_is_the_bernstein_ellipse_halfway_to_the_neighbour(gap: float) -> None:
+    """Foci at the zone's edges, parameter the geometric mean of 1 and the neighbour's: the
+    ellipse clears the neighbouring zone by the same rate it clears its own."""
+    lay = Layout(np.array([-1.0, 0.0, gap, gap + 2.0]), np.zeros(4, bool))
+    (c, ax, ay), _ = normal._zone_ellipses(lay)
+    rx = 0.5
+    assert c == -0.5 and ax**2 - ay**2 == pytest.approx(rx**2)
+    rho = (ax + ay) / rx
+    far = rx + gap  # the neighbour's edge relative to the centre
+    rho_out = (far + np.sqrt(far**2 - rx**2)) / rx
+    assert rho == pytest.approx(min(np.sqrt(rho_out), normal.RHO_ISOLATED))
+    assert c + ax < gap
+
+
+def test_isolated_zone_ellipse() -> None:
+    lay = Layout(np.array([1.0, 3.0]), np.zeros(2, bool))
+    (c, ax, ay), = normal._zone_ellipses(lay)
+    assert c == 2.0 and (ax + ay) == pytest.approx(normal.RHO_ISOLATED)
 
 
 def test_predictor_is_exact_for_edges_cubic_in_log_load() -> None:
