@@ -113,6 +113,11 @@ class Layout:
         """Exponent of each edge in W: +1/2 nonsingular, -1/2 singular (read-only)."""
         return _edge_flags(self.pinned.tobytes())[1]
 
+    @property
+    def free(self) -> np.ndarray:
+        """Indices of the nonsingular edges (read-only)."""
+        return _edge_flags(self.pinned.tobytes())[2]
+
     def zones(self) -> list[tuple[float, float]]:
         return [(float(a), float(b)) for a, b in self.edges.reshape(-1, 2)]
 
@@ -121,12 +126,14 @@ class Layout:
 
 
 @lru_cache(maxsize=256)
-def _edge_flags(pinned: bytes) -> tuple[int, np.ndarray]:
-    """``e`` and the read-only exponents ``eps`` of the singular flags ``pinned`` (as bytes)."""
+def _edge_flags(pinned: bytes) -> tuple[int, np.ndarray, np.ndarray]:
+    """``e``, the exponents ``eps`` and the free-edge indices of the singular flags ``pinned``
+    (as bytes); the arrays are read-only."""
     flags = np.frombuffer(pinned, dtype=bool)
     eps = np.where(flags, -0.5, 0.5)
-    eps.flags.writeable = False
-    return int(np.count_nonzero(~flags)), eps
+    free = np.flatnonzero(~flags)
+    eps.flags.writeable = free.flags.writeable = False
+    return int(free.size), eps, free
 
 
 def sign_exponent(x: np.ndarray, edges: np.ndarray, pinned: np.ndarray) -> np.ndarray:
@@ -731,24 +738,29 @@ class System:
 
     def gap_slope(self, x: np.ndarray) -> np.ndarray:
         """Deformed-gap slope ``g'(x) = W(x) B(x)/pi`` at absolute x outside the zones."""
-        x = np.atleast_1d(np.asarray(x, float))
-        H = self.profile.dh0(x) - self.theta
-        return self.W_real(x) * self.B(x - self.xc, H, lambda: self.profile.d2h0(x)) / np.pi
+        return self.pressure_and_slope(np.zeros(0), x)[1]
 
     def pressure_inside(self, x: np.ndarray) -> np.ndarray:
-        """p at absolute x known to lie inside the zones.
+        """p at absolute x known to lie inside the zones (see :meth:`pressure_and_slope`)."""
+        return self.pressure_and_slope(x, np.zeros(0))[0]
+
+    def pressure_and_slope(self, x_in: np.ndarray, x_out: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray]:
+        """p at absolute ``x_in`` inside the zones and ``g' = W B/pi`` at ``x_out`` outside them,
+        from one evaluation of B (``p = W_s B/(pi A)``).
 
         Near an interior kink of h0 (wedge apex, end of a flat face) the divided difference
         ``(h'(s) - h'(x))/(s - x)`` jumps across the kink; those points get a quadrature graded
         towards the kink at their own distance from it (p is log-singular at an apex).
         """
-        x = np.atleast_1d(np.asarray(x, float))
+        x_in = np.atleast_1d(np.asarray(x_in, float))
+        x = np.concatenate([x_in, np.atleast_1d(np.asarray(x_out, float))])
         H = self.profile.dh0(x) - self.theta
-        dH = self.profile.d2h0(x)
-        Bv = self.B(x - self.xc, H, dH)
-        for j, kink, cuts in self._near_kinks(x):
+        Bv = self.B(x - self.xc, H, lambda: self.profile.d2h0(x))
+        for j, kink, cuts in self._near_kinks(x_in):
             Bv[j] = self._B_graded(x[j], H[j], kink, cuts)
-        return self.W_real(x) * Bv / (np.pi * self.A)
+        WB = self.W_real(x) * Bv / np.pi
+        return WB[:x_in.size] / self.A, WB[x_in.size:]
 
     def _near_kinks(self, x: np.ndarray):
         """(index, kink, zone cuts) for points closer to an interior kink than KINK_ZONE."""

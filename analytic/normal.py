@@ -150,7 +150,7 @@ class _State:
 
 
 def _free_edges(layout: Layout, mode: _Mode) -> np.ndarray:
-    free = np.flatnonzero(~layout.pinned)
+    free = layout.free
     return free[free != mode.driver] if mode.driver is not None else free
 
 
@@ -456,12 +456,11 @@ def _check_points_inside(edges: np.ndarray, n_pts: int = 49,
     z = edges.reshape(-1, 2)
     t = _cheb_unit(n_pts)
     pts = [(z[:, :1] + (z[:, 1:] - z[:, :1]) * t[None, :]).ravel()]
-    if profile is not None:
-        for a, b in z:
-            x = a + (b - a) * _SCAN[1:-1]
-            h = profile.h0(x) - theta * x
-            peak = np.flatnonzero((h[1:-1] >= h[:-2]) & (h[1:-1] >= h[2:])) + 1
-            pts.append(x[peak])
+    if profile is not None:  # one scan of all zones at once, zone by zone in the output
+        x = z[:, :1] + (z[:, 1:] - z[:, :1]) * _SCAN[None, 1:-1]
+        h = profile.h0(x) - theta * x
+        peak = (h[:, 1:-1] >= h[:, :-2]) & (h[:, 1:-1] >= h[:, 2:])
+        pts.append(x[:, 1:-1][peak])
     return np.concatenate(pts)
 
 
@@ -473,26 +472,42 @@ def _gap_candidates(st: _State, sys_: System, profile: Profile) -> np.ndarray:
     outer edges; the profile's own local minima, kinks and corners are added (new zones touch
     there).  Only these few points need the integral for g itself.
     """
+    runs, closed = _gap_runs(st, profile)
+    return _candidates_from_slopes(st, profile, runs, closed,
+                                   sys_.gap_slope(np.concatenate(runs)))
+
+
+def _gap_runs(st: _State, profile: Profile) -> tuple[list[np.ndarray], list[bool]]:
+    """The runs of g' samples: across every gap (from its left edge) and beyond the right and
+    the left outer edge, inside the support and where h0 is finite; per run whether it ends at
+    the next zone's edge (an untruncated run across a gap)."""
     e = st.layout.edges
     span = max(e[-1] - e[0], profile.scale)
-    t = _cheb_unit(24)
     d = span * _OUTER_RUN
+    t = _cheb_unit(24)
     runs = [e[2 * m + 1] + (e[2 * m + 2] - e[2 * m + 1]) * t for m in range(st.layout.n - 1)]
     runs += [e[-1] + d, e[0] - d]
-    cands = [np.asarray([0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
-                        + list(profile.pin_points) + list(profile.kinks), float)]
     lo, hi = profile.support
     full = [x.size for x in runs]
     runs = [x[(x >= lo) & (x <= hi)] for x in runs]
     if profile.pieces_have_gaps:
         runs = [x[np.isfinite(profile.h0(x))] for x in runs]
-    slopes = np.split(sys_.gap_slope(np.concatenate(runs)), np.cumsum([x.size for x in runs])[:-1])
-    slopes[-1] = -slopes[-1]  # the last run goes leftwards: the slope along it is -g'
-    # an untruncated run in a gap ends next to the following zone's edge, where g = 0
     closed = [x.size == m for x, m in zip(runs[:-2], full, strict=False)] + [False, False]
-    cands += [_slope_minima(x, gp, end_at_edge)
-              for x, gp, end_at_edge in zip(runs, slopes, closed, strict=True) if x.size]
+    return runs, closed
+
+
+def _candidates_from_slopes(st: _State, profile: Profile, runs: list[np.ndarray],
+                            closed: list[bool], gp: np.ndarray) -> np.ndarray:
+    """The candidates of :func:`_gap_candidates` given ``g'`` on the concatenated runs."""
+    e = st.layout.edges
+    slopes = np.split(gp, np.cumsum([x.size for x in runs])[:-1])
+    slopes[-1] = -slopes[-1]  # the last run goes leftwards: the slope along it is -g'
+    cands = [np.asarray([0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
+                        + list(profile.pin_points) + list(profile.kinks), float)]
+    cands += [_slope_minima(x, s, end_at_edge)
+              for x, s, end_at_edge in zip(runs, slopes, closed, strict=True) if x.size]
     x = np.concatenate(cands)
+    lo, hi = profile.support
     x = x[(x >= lo) & (x <= hi)]
     return x[~_inside(x, e) & ~np.any(x[:, None] == e[None, :], axis=1)]
 
@@ -522,11 +537,12 @@ class _Event:
 def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event | None:
     P_scale = st.P / max(st.layout.edges[1::2].sum() - st.layout.edges[0::2].sum(), 1e-300)
     xi = _check_points_inside(st.layout.edges, profile=profile, theta=st.theta)
-    p = sys_.pressure_inside(xi)
+    runs, closed = _gap_runs(st, profile)
+    p, gp = sys_.pressure_and_slope(xi, np.concatenate(runs))
     st.checks = {"min_pressure": float(np.min(p)), "min_gap": 0.0}
     if np.min(p) < -ADMISSIBLE_TOL * P_scale:
         return _pressure_event(st, xi, p)
-    xo = _gap_candidates(st, sys_, profile)
+    xo = _candidates_from_slopes(st, profile, runs, closed, gp)
     if xo.size:
         g = deformed_gap(sys_, xo)
         st.checks["min_gap"] = float(np.min(g))
