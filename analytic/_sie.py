@@ -373,13 +373,14 @@ class GapPlan:
     sums: np.ndarray        # (nodes, parts) indicator: which integral each node adds to
 
     @cached_property
-    def maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Matrices from the lengths ``[f, L, D]`` ``(K, 3 parts)`` to t, the half-widths and
-        the ``f`` term of the base at the nodes, and per node its edge and direction."""
+    def maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The matrix from the lengths ``[f, L, D]`` ``(K, 3 parts)`` to ``[t, half-widths,
+        f term of the base]`` at the nodes ``(K, 3 nodes)``, and per node its edge and
+        direction."""
         per_part = self.sums.T
         a, c = (np.concatenate([per_part * m[i] for i in range(3)]) for m in (self.a, self.c))
         b = np.concatenate([per_part * self.b[0], 0.0 * per_part, 0.0 * per_part])
-        return a, c, b, self.edge[self.part], self.direction[self.part]
+        return np.concatenate([a, c, b], axis=1), self.edge[self.part], self.direction[self.part]
 
     @cached_property
     def graded(self) -> tuple[np.ndarray, np.ndarray]:
@@ -521,9 +522,9 @@ class Batch:
     def _node_factors(self) -> tuple[np.ndarray, np.ndarray]:
         """The consistency nodes ``c (K, m)`` (centres of :func:`consistency_zones`, shifted)
         and ``s - c_j`` ``(K, N, m)``."""
-        zones = consistency_zones(self.layout)
+        zones = 2 * consistency_zones(self.layout)
         e = self.edges - self.xc
-        c = 0.5 * (e[:, 2 * zones] + e[:, 2 * zones + 1])
+        c = 0.5 * (e[:, zones] + e[:, zones + 1])
         return c, self.sq.s[:, :, None] - c[:, None, :]
 
     def consistency(self) -> tuple[np.ndarray, np.ndarray]:
@@ -633,9 +634,9 @@ class Batch:
             return np.zeros(x_to.shape), ends
         f = np.minimum(L, np.maximum(self._edge_clearances[:, plan.edge], 1e-300))
         lengths = np.concatenate([f, L, D], axis=1)
-        to_t, to_hw, to_base, node_edge, node_dir = plan.maps
-        t = lengths @ to_t
-        w = plan.w * (lengths @ to_hw) * (lengths @ to_base + plan.b[1] * t) ** plan.ex
+        to_all, node_edge, node_dir = plan.maps
+        t, hw, base = np.split(lengths @ to_all, 3, axis=1)
+        w = plan.w * hw * (base + plan.b[1] * t) ** plan.ex
         x = self.edges[:, node_edge] + node_dir * t
         H = np.zeros(x.shape)
         for pc, nodes in plan.groups:
@@ -677,11 +678,18 @@ class Batch:
 
 def consistency_zones(layout: Layout) -> np.ndarray:
     """The ``e - n`` zones whose centres carry the Lagrange basis of the consistency conditions:
-    those with the most nonsingular edges (ties: leftmost), in order of x."""
-    pinned = layout.pinned.tolist()
-    free = [2 - pinned[2 * z] - pinned[2 * z + 1] for z in range(layout.n)]
-    order = sorted(range(layout.n), key=lambda z: -free[z])[:max(layout.e - layout.n, 0)]
-    return np.array(sorted(order), int)
+    those with the most nonsingular edges (ties: leftmost), in order of x (read-only)."""
+    return _consistency_zones(tuple(layout.pinned.tolist()))
+
+
+@lru_cache(maxsize=256)
+def _consistency_zones(pinned: tuple[bool, ...]) -> np.ndarray:
+    n = len(pinned) // 2
+    free = [2 - pinned[2 * z] - pinned[2 * z + 1] for z in range(n)]
+    order = sorted(range(n), key=lambda z: -free[z])[:max(sum(free) - n, 0)]
+    out = np.array(sorted(order), int)
+    out.flags.writeable = False
+    return out
 
 
 def _horner_rows(coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
