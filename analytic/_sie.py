@@ -601,6 +601,7 @@ class Batch:
         target lies in the gap (or the outer region) on the outer side of its edge."""
         eps = self.layout.eps.tolist()
         el = self.edges[0].tolist()
+        clearance = self._edge_clearances[0].tolist()
         pieces = self.edge_pieces
         structure = []
         for i, xt in zip(idx, x_to, strict=True):
@@ -611,8 +612,7 @@ class Batch:
             length = min(dist, 0.5 * abs(reach - x0))
             n_first = n_graded = 0
             if length > 0:
-                c = min(x0 - el[i - 1] if i > 0 else math.inf,
-                        el[i + 1] - x0 if i + 1 < len(el) else math.inf)
+                c = clearance[i]
                 first = min(length, max(c, 1e-300))
                 n_first = nodes_for(first, c)
                 lo = first

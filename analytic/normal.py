@@ -464,19 +464,6 @@ def _check_points_inside(edges: np.ndarray, n_pts: int = 49,
     return np.concatenate(pts)
 
 
-def _gap_candidates(st: _State, sys_: System, profile: Profile) -> np.ndarray:
-    """Where the deformed gap can be smallest outside the zones.
-
-    ``g = 0`` at every edge and ``g' = W B/pi`` is cheap (no integral), so the minima of g are
-    found from sign changes of ``g'`` on a grid in every gap and on geometric grids beyond the
-    outer edges; the profile's own local minima, kinks and corners are added (new zones touch
-    there).  Only these few points need the integral for g itself.
-    """
-    runs, closed = _gap_runs(st, profile)
-    return _candidates_from_slopes(st, profile, runs, closed,
-                                   sys_.gap_slope(np.concatenate(runs)))
-
-
 def _gap_runs(st: _State, profile: Profile) -> tuple[list[np.ndarray], list[bool]]:
     """The runs of g' samples: across every gap (from its left edge) and beyond the right and
     the left outer edge, inside the support and where h0 is finite; per run whether it ends at
@@ -496,9 +483,16 @@ def _gap_runs(st: _State, profile: Profile) -> tuple[list[np.ndarray], list[bool
     return runs, closed
 
 
-def _candidates_from_slopes(st: _State, profile: Profile, runs: list[np.ndarray],
-                            closed: list[bool], gp: np.ndarray) -> np.ndarray:
-    """The candidates of :func:`_gap_candidates` given ``g'`` on the concatenated runs."""
+def _gap_candidates(st: _State, profile: Profile, runs: list[np.ndarray], closed: list[bool],
+                    gp: np.ndarray) -> np.ndarray:
+    """Where the deformed gap can be smallest outside the zones, given ``g'`` on the
+    concatenated :func:`_gap_runs`.
+
+    ``g = 0`` at every edge and ``g' = W B/pi`` is cheap (no integral), so the minima of g are
+    found from sign changes of ``g'`` on a grid in every gap and on geometric grids beyond the
+    outer edges; the profile's own local minima, kinks and corners are added (new zones touch
+    there).  Only these few points need the integral for g itself.
+    """
     e = st.layout.edges
     slopes = np.split(gp, np.cumsum([x.size for x in runs])[:-1])
     slopes[-1] = -slopes[-1]  # the last run goes leftwards: the slope along it is -g'
@@ -542,7 +536,7 @@ def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event 
     st.checks = {"min_pressure": float(np.min(p)), "min_gap": 0.0}
     if np.min(p) < -ADMISSIBLE_TOL * P_scale:
         return _pressure_event(st, xi, p)
-    xo = _candidates_from_slopes(st, profile, runs, closed, gp)
+    xo = _gap_candidates(st, profile, runs, closed, gp)
     if xo.size:
         g = deformed_gap(sys_, xo)
         st.checks["min_gap"] = float(np.min(g))
@@ -692,8 +686,7 @@ def _predict(st: _State, prev: tuple[_State, ...], P_next: float, profile: Profi
 
 
 def _same_topology(a: Layout, b: Layout) -> bool:
-    return a.pinned is b.pinned or (a.pinned.shape == b.pinned.shape
-                                    and a.pinned.tobytes() == b.pinned.tobytes())
+    return a.pinned is b.pinned or a.pinned.tobytes() == b.pinned.tobytes()
 
 
 def _extrapolate(u: list[float], y: list[np.ndarray], at: float) -> np.ndarray:

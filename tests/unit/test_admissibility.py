@@ -20,6 +20,12 @@ def hertz():
     return sol, st
 
 
+def _candidates(st, sys_, profile) -> np.ndarray:
+    """The gap-check candidates with ``g'`` from ``sys_`` on the runs of ``st``."""
+    runs, closed = normal._gap_runs(st, profile)
+    return normal._gap_candidates(st, profile, runs, closed, sys_.gap_slope(np.concatenate(runs)))
+
+
 def _with_slope(sys_, value: float):
     """The system with a constant deformed-gap slope ``g' = value`` outside the zones."""
     return SimpleNamespace(gap_slope=lambda x: np.full(np.shape(x), value),
@@ -32,7 +38,7 @@ def test_gap_falling_away_from_an_outer_edge_is_checked(hertz, slope: float, sid
     right of it, rightwards): the check must sample g just beyond that edge, and only there."""
     sol, st = hertz
     (a, b), = sol.zones
-    cands = normal._gap_candidates(st, _with_slope(sol._system, slope), sol.profile)
+    cands = _candidates(st, _with_slope(sol._system, slope), sol.profile)
     cands = cands[np.abs(cands) > 1e-12]  # the profile's own minimum (x = 0) is inside the zone
     if side == "left":
         assert cands.size >= 1 and np.all(cands < a) and a - cands.max() < 1e-3 * (b - a)
@@ -43,7 +49,7 @@ def test_gap_falling_away_from_an_outer_edge_is_checked(hertz, slope: float, sid
 def test_healthy_outer_gap_needs_no_samples(hertz) -> None:
     """The converged Hertz contact: g rises away from both edges, nothing to sample outside."""
     sol, st = hertz
-    assert normal._gap_candidates(st, sol._system, sol.profile).size == 0
+    assert _candidates(st, sol._system, sol.profile).size == 0
 
 
 def test_slope_minima_finds_the_turn_and_the_falling_ends() -> None:
@@ -63,9 +69,9 @@ def test_gap_falling_into_the_next_zone_is_not_sampled() -> None:
     left zone's edge is still sampled next to it."""
     sol = analytic.solve_normal(profiles.biquadratic(1.0, 1.0), 0.4, 1.0)
     st = normal._fresh_state(sol._system.layout, 0.0, sol.P)
-    assert normal._gap_candidates(st, sol._system, sol.profile).size == 0
+    assert _candidates(st, sol._system, sol.profile).size == 0
     (_, b1), (a2, _) = sol.zones
-    cands = normal._gap_candidates(st, _with_slope(sol._system, -1.0), sol.profile)
+    cands = _candidates(st, _with_slope(sol._system, -1.0), sol.profile)
     inner = cands[(cands > b1) & (cands < a2)]
     assert inner.size == 1 and inner[0] - b1 < 1e-2 * (a2 - b1)
 
