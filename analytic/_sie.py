@@ -31,6 +31,7 @@ All coordinates here are shifted by the centre ``xc`` (powers stay well scaled).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -278,7 +279,8 @@ def _segment_slopes(plan: SquadPlan, profile: Profile, s: np.ndarray) -> np.ndar
     boundary inside the support is a kink or a corner, so each segment lies in one piece."""
     if plan.pieces is None:
         return profile.dh0(s)
-    parts = np.split(s, np.cumsum(plan.counts)[:-1], axis=1)
+    parts = [s[:, hi - n:hi] for n, hi in zip(plan.counts, itertools.accumulate(plan.counts),
+                                              strict=True)]
     return np.concatenate([pc.dh(seg) if pc is not None else np.full(seg.shape, np.nan)
                            for pc, seg in zip(plan.pieces, parts, strict=True)], axis=1)
 
@@ -371,16 +373,27 @@ class GapPlan:
     w: np.ndarray           # (nodes,) reference weight times the direction and the sign of W
     groups: tuple           # (piece, node indices) of the graded nodes, per piece
     sums: np.ndarray        # (nodes, parts) indicator: which integral each node adds to
+    n_edges: int            # 2n
 
     @cached_property
-    def maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The matrix from the lengths ``[f, L, D]`` ``(K, 3 parts)`` to ``[t, half-widths,
-        f term of the base]`` at the nodes ``(K, 3 nodes)``, and per node its edge and
-        direction."""
+    def maps(self) -> np.ndarray:
+        """The matrix from ``[edges, f, L, D]`` ``(K, 2n + 3 parts)`` to the nodes' ``[x,
+        half-width, base]`` ``(K, 3 nodes)``, all three affine in those."""
         per_part = self.sums.T
-        a, c = (np.concatenate([per_part * m[i] for i in range(3)]) for m in (self.a, self.c))
-        b = np.concatenate([per_part * self.b[0], 0.0 * per_part, 0.0 * per_part])
-        return np.concatenate([a, c, b], axis=1), self.edge[self.part], self.direction[self.part]
+        t, hw = (np.concatenate([per_part * m[i] for i in range(3)]) for m in (self.a, self.c))
+        f_term = np.concatenate([per_part * self.b[0], 0.0 * per_part, 0.0 * per_part])
+        pick = (np.arange(self.n_edges)[:, None] == self.edge[self.part]).astype(float)
+        none = np.zeros(pick.shape)
+        return np.concatenate([np.concatenate([pick, t * self.direction[self.part]]),
+                               np.concatenate([none, hw]),
+                               np.concatenate([none, f_term + t * self.b[1]])], axis=1)
+
+    def nodes(self, edges: np.ndarray, lengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nodes ``x`` and weights ``(K, nodes)`` for edges ``(K, 2n)`` and the per-integral
+        lengths ``[f, L, D]`` ``(K, 3 parts)``."""
+        m = self.part.size
+        xhb = np.concatenate([edges, lengths], axis=1) @ self.maps
+        return xhb[:, :m], self.w * xhb[:, m:2 * m] * xhb[:, 2 * m:] ** self.ex
 
     @cached_property
     def graded(self) -> tuple[np.ndarray, np.ndarray]:
@@ -429,7 +442,7 @@ def _gap_plan(structure: tuple, pinned: tuple) -> GapPlan:
         z = np.zeros(0)
         return GapPlan(*_part_arrays(structure), np.zeros(0, int), np.zeros(0, int),
                        np.zeros((3, 0)), np.zeros((3, 0)), np.zeros((2, 0)), z, z, (),
-                       np.zeros((0, len(structure))))
+                       np.zeros((0, len(structure))), len(pinned))
     part = np.concatenate(cols["part"])
     own = np.concatenate(cols["own"])
     for pc in {s[3] for s in structure}:
@@ -440,7 +453,7 @@ def _gap_plan(structure: tuple, pinned: tuple) -> GapPlan:
     return GapPlan(*_part_arrays(structure), part, own, np.concatenate(cols["a"], 1),
                    np.concatenate(cols["c"], 1), np.concatenate(cols["b"], 1),
                    np.concatenate(cols["ex"]), np.concatenate(cols["w"]), tuple(groups.items()),
-                   (part[:, None] == np.arange(len(structure))).astype(float))
+                   (part[:, None] == np.arange(len(structure))).astype(float), len(pinned))
 
 
 def _part_arrays(structure: tuple) -> tuple:
@@ -591,8 +604,9 @@ class Batch:
 
     @cached_property
     def _edge_clearances(self) -> np.ndarray:
-        """Distance from each edge to the nearest other edge ``(K, 2n)`` (edges are sorted)."""
-        d = np.diff(self.edges, axis=1)
+        """Distance from each edge to the nearest other edge ``(K, 2n)`` (edges are sorted;
+        floored at 1e-300)."""
+        d = np.maximum(np.diff(self.edges, axis=1), 1e-300)
         pad = np.full((self.size, 1), np.inf)
         return np.minimum(np.concatenate([pad, d], 1), np.concatenate([d, pad], 1))
 
@@ -622,29 +636,32 @@ class Batch:
                               dist > length * (1 + 1e-14)))
         return _gap_plan(tuple(structure), tuple(self.layout.pinned.tolist()))
 
-    def gap_sums(self, plan: GapPlan, x_to: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def gap_sums(self, plan: GapPlan, x_to: np.ndarray) -> np.ndarray:
         """``int g'`` ``(K, parts)`` from each planned edge to ``x_to (K, parts)`` (the graded
-        parts as ``S - [h]``, see :class:`GapPlan`), and the end of each graded part
-        ``(K, parts)``.  All points share one evaluation of B."""
+        parts as ``S - [h]``, see :class:`GapPlan` and :meth:`graded_ends`).  All points share
+        one evaluation of B."""
+        if plan.part.size == 0:
+            return np.zeros(x_to.shape)
         x0 = self.edges[:, plan.edge]
         D = np.abs(x_to - x0)
         L = np.minimum(D, 0.5 * np.abs(plan.reach - x0))
-        ends = np.where(L == D, x_to, x0 + plan.direction * L)
-        if plan.part.size == 0:
-            return np.zeros(x_to.shape), ends
-        f = np.minimum(L, np.maximum(self._edge_clearances[:, plan.edge], 1e-300))
-        lengths = np.concatenate([f, L, D], axis=1)
-        to_all, node_edge, node_dir = plan.maps
-        t, hw, base = np.split(lengths @ to_all, 3, axis=1)
-        w = plan.w * hw * (base + plan.b[1] * t) ** plan.ex
-        x = self.edges[:, node_edge] + node_dir * t
+        f = np.minimum(L, self._edge_clearances[:, plan.edge])
+        x, w = plan.nodes(self.edges, np.concatenate([f, L, D], axis=1))
         H = np.zeros(x.shape)
         for pc, nodes in plan.groups:
             H[:, nodes] = pc.dh(x[:, nodes]) - self.theta[:, None]
         logs = np.log(np.abs(x[:, :, None] - self.edges[:, None, :]))
         logs[(slice(None), *plan.graded)] = 0.0  # the edge's own factor is in the graded weight
         vals = w * np.exp(logs @ self.layout.eps) * self.B(x - self.xc, H, off_nodes=True)
-        return (vals @ plan.sums) / np.pi, ends
+        return (vals @ plan.sums) / np.pi
+
+    def graded_ends(self, plan: GapPlan, x_to: np.ndarray) -> np.ndarray:
+        """The end of each graded part of :meth:`gap_sums` ``(K, parts)``: the target, or the
+        limit half-way to the end of the edge piece's continuation."""
+        x0 = self.edges[:, plan.edge]
+        D = np.abs(x_to - x0)
+        L = np.minimum(D, 0.5 * np.abs(plan.reach - x0))
+        return np.where(L == D, x_to, x0 + plan.direction * L)
 
     def h_at(self, ends: np.ndarray, pieces: Sequence[Piece]) -> np.ndarray:
         """``h = h0 - theta x`` at the ends ``(K, q)`` of graded parts, from their pieces."""
@@ -665,12 +682,13 @@ class Batch:
         mid = 0.5 * (e[:, 1:-1:2] + e[:, 2:-1:2])
         x_to = np.concatenate([mid, mid], axis=1)
         plan = self.gap_plan([*range(1, 2 * n - 2, 2), *range(2, 2 * n - 1, 2)], x_to[0].tolist())
-        S, ends = self.gap_sums(plan, x_to)
+        S = self.gap_sums(plan, x_to)
         out = S[:, : n - 1] - S[:, n - 1:]
-        pcs = plan.pieces
+        pcs, ends = plan.pieces, None
         for m in range(n - 1):
             pb, pa = pcs[m], pcs[m + n - 1]
             if not (pb is pa and not plan.far[m] and not plan.far[m + n - 1]):
+                ends = self.graded_ends(plan, x_to) if ends is None else ends
                 h = self.h_at(ends[:, [m + n - 1, m]], [pa, pb])
                 out[:, m] += h[:, 0] - h[:, 1]
         return out
@@ -853,5 +871,6 @@ class System:
         ``g = h(x) - h(x_e) + S``.  One evaluation of B for all points."""
         x_to = np.asarray(x_to, float)
         plan = self.batch.gap_plan(np.asarray(idx).tolist(), x_to.tolist())
-        S, ends = self.batch.gap_sums(plan, x_to[None, :])
+        S = self.batch.gap_sums(plan, x_to[None, :])
+        ends = self.batch.graded_ends(plan, x_to[None, :])
         return h_to - self.batch.h_at(ends, plan.pieces)[0] + S[0]

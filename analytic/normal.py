@@ -9,6 +9,7 @@ admissible (zones appear, merge, split; singular edges pin at corners or release
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -494,7 +495,8 @@ def _gap_candidates(st: _State, profile: Profile, runs: list[np.ndarray], closed
     there).  Only these few points need the integral for g itself.
     """
     e = st.layout.edges
-    slopes = np.split(gp, np.cumsum([x.size for x in runs])[:-1])
+    ends = list(itertools.accumulate(x.size for x in runs))
+    slopes = [gp[hi - x.size:hi] for x, hi in zip(runs, ends, strict=True)]
     slopes[-1] = -slopes[-1]  # the last run goes leftwards: the slope along it is -g'
     cands = [np.asarray([0.5 * (m[0] + m[1]) for m in profile.local_minima(st.theta)]
                         + list(profile.pin_points) + list(profile.kinks), float)]

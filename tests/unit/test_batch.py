@@ -86,10 +86,8 @@ def test_planned_gap_rule_is_the_graded_rule(length: float, clearance: float,
     plan = sys_.batch.gap_plan([1], [length])
     assert not plan.far[0]  # a global piece: the graded part reaches the target
     f = min(length, clearance)
-    lengths = np.array([[f, length, length]])
-    to_all, _, _ = plan.maps
-    t, hw, base = np.split((lengths @ to_all)[0], 3)
-    w = plan.w * hw * (base + plan.b[1] * t) ** plan.ex
+    x, w = plan.nodes(lay.edges[None, :], np.array([[f, length, length]]))
+    t, w = x[0] - lay.edges[1], w[0]
     t_ref, w_ref = graded_rule(length, clearance, -0.5 if pinned else 0.5)
     i, i_ref = np.argsort(t), np.argsort(t_ref)
     assert np.allclose(t[i], t_ref[i_ref], rtol=0, atol=NODE_ROUNDING * length)
