@@ -475,6 +475,8 @@ def _gap_runs(st: _State, profile: Profile) -> tuple[list[np.ndarray], list[bool
     t = _cheb_unit(24)
     runs = [e[2 * m + 1] + (e[2 * m + 2] - e[2 * m + 1]) * t for m in range(st.layout.n - 1)]
     runs += [e[-1] + d, e[0] - d]
+    starts = [*e[1:-1:2], e[-1], e[0]]
+    runs = [_with_kink_sides(x, x0, profile) for x, x0 in zip(runs, starts, strict=True)]
     lo, hi = profile.support
     full = [x.size for x in runs]
     runs = [x[(x >= lo) & (x <= hi)] for x in runs]
@@ -482,6 +484,26 @@ def _gap_runs(st: _State, profile: Profile) -> tuple[list[np.ndarray], list[bool
         runs = [x[np.isfinite(profile.h0(x))] for x in runs]
     closed = [x.size == m for x, m in zip(runs[:-2], full, strict=False)] + [False, False]
     return runs, closed
+
+
+KINK_SIDE = 1e-9  # the g' samples either side of a kink, relative to max(scale, |kink|)
+
+
+def _with_kink_sides(x: np.ndarray, x0: float, profile: Profile) -> np.ndarray:
+    """The run ``x`` (ordered away from its edge ``x0``) with a sample just before and just
+    after every kink of h0 that it crosses.  g' jumps at a kink: at a ridge (the slope drops,
+    e.g. where two members of a union meet) g rises into the kink and falls beyond it, so a
+    minimum of g just before the ridge leaves no sign change of g' between the samples on either
+    side of it (stress case: a new zone's overlap 4.8e-4 deep went unseen next to a ridge)."""
+    lo, hi = sorted((x0, float(x[-1])))
+    q = np.array([k for k in profile.kinks if lo < k < hi], float)
+    if not q.size:
+        return x
+    dq = KINK_SIDE * np.maximum(profile.scale, np.abs(q))
+    sides = np.concatenate([q - dq, q + dq])
+    sides = sides[(sides > lo) & (sides < hi)]
+    out = np.concatenate([x, sides])
+    return out[np.argsort(np.abs(out - x0), kind="stable")]
 
 
 def _gap_candidates(st: _State, profile: Profile, runs: list[np.ndarray], closed: list[bool],
@@ -709,9 +731,11 @@ def _extrapolate(u: list[float], y: list[np.ndarray], at: float) -> np.ndarray:
 
 
 def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[_State, System]:
-    history = []
+    history: list[_Event] = []
+    starts: set[bytes] = set()
     for _ in range(MAX_TOPOLOGY_CHANGES):
         st = _recentre(st)
+        _check_cycle(st.layout, starts, history)
         try:
             st, F = _newton(st, _Mode(st.P, M), profile, A)
         except _NewtonFailed as exc:
@@ -735,6 +759,17 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         st = _apply_event(st, ev, sys_, profile)
         st.beta = _beta_for(st, A, st.P)
     raise _StepFailed(f"topology did not settle: {history}")
+
+
+def _check_cycle(layout: Layout, starts: set[bytes], history: list[_Event]) -> None:
+    """Fail the step at once when a Newton solve would restart from a layout (edges and
+    singular flags) already tried in this step: the solve and the events after it are
+    deterministic, so the topology would only cycle until MAX_TOPOLOGY_CHANGES (e.g. pin at a
+    ridge, negative pressure, release, Newton fails, pin at the same ridge again)."""
+    key = layout.edges.tobytes() + layout.pinned.tobytes()
+    if key in starts:
+        raise _StepFailed(f"topology cycles: {history}")
+    starts.add(key)
 
 
 def _recentre(st: _State) -> _State:
@@ -801,7 +836,7 @@ def _continue(st: _State, P_target: float, profile: Profile, A: float,
                 if P_next == P_target:
                     return st, sys_, prev
                 continue
-            ratio = np.sqrt(ratio)
+            ratio = np.sqrt(P_next / st.P)  # half the failed step (in log P), not of ratio
             if ratio < 1 + 1e-7:
                 raise ConvergenceError(f"continuation stalled at P={st.P:.6g}: {exc}",
                                        {"P_reached": st.P, "P_target": P_target,

@@ -133,3 +133,32 @@ def test_predictor_raises_its_degree_while_the_corrections_shrink() -> None:
     np.testing.assert_allclose(secant.layout.edges,
                                (1 - w) * edges(loads[-2]) + w * edges(loads[-1]), rtol=1e-13)
     assert np.max(np.abs(secant.layout.edges - edges(target))) > 1e-6  # the test has teeth
+
+
+def test_gap_minimum_just_before_a_ridge_is_sampled() -> None:
+    """Two cylinders meeting in a ridge at x = 0 inside the gap between their zones.  g falls
+    away from the left zone, turns to rise only 1e-6 before the ridge and falls beyond it (g'
+    jumps down at a ridge): the minimum of g lies between the last sample before the ridge and
+    the ridge, so samples just either side of every kink are needed to see it."""
+    prof = profiles.union(profiles.cylinder(1.0, center=-1.0), profiles.cylinder(1.0, center=1.0))
+    assert prof.ridges == (0.0,)
+    lay = Layout(np.array([-1.2, -0.8, 0.8, 1.2]), np.zeros(4, bool))
+    st = normal._fresh_state(lay, 0.0, 0.1)
+
+    def slope(x):
+        x = np.asarray(x, float)
+        return np.where((x > -1e-6) & (x < 0.0), 1.0, -1.0)
+
+    cands = _candidates(st, SimpleNamespace(gap_slope=slope, layout=lay), prof)
+    assert np.any((cands > -0.1) & (cands < 0.0))  # not only the kink itself (x = 0)
+
+
+def test_repeated_start_layout_fails_the_step_at_once() -> None:
+    """A Newton start already tried in the same step means the topology events cycle."""
+    lay = Layout(np.array([-1.0, 0.0, 0.5, 1.0]), np.array([False, True, False, False]))
+    starts: set[bytes] = set()
+    normal._check_cycle(lay, starts, [])
+    normal._check_cycle(lay.with_edges(lay.edges + 1e-3), starts, [])
+    normal._check_cycle(Layout(lay.edges, np.zeros(4, bool)), starts, [])
+    with pytest.raises(normal._StepFailed, match="cycles"):
+        normal._check_cycle(Layout(lay.edges.copy(), lay.pinned.copy()), starts, [])
