@@ -30,6 +30,9 @@ def check_tipping(profile: Profile, P: float, M: float) -> float:
 
 
 def _moment_at(profile: Profile, P: float, A: float, theta: float):
+    lo, hi = profile.tilt_limits
+    if not lo < theta < hi:  # h0 - theta x flat or falling out to infinity: no solution
+        return None
     try:
         st, sys_ = _solve_fixed(profile, P, A, theta)
     except ConvergenceError:
@@ -62,8 +65,7 @@ def _bracket(profile, P, A, M, theta0, step):
 
 def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[_State, System]:
     xe = check_tipping(profile, P, M)
-    slope = profile.dh0(np.array([xe]))[0]
-    theta0 = float(slope) if np.isfinite(slope) else 0.0
+    theta0 = _initial_rotation(profile, xe)
     scale = abs(theta0) + A * P / profile.scale + 1e-12
     (t_lo, t_hi), _ = _bracket(profile, P, A, M, theta0, 0.25 * scale)
     theta = brentq(lambda t: _moment_or_nan(profile, P, A, t) - M, t_lo, t_hi,
@@ -75,6 +77,20 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[_
         if abs(sys_.load_and_moment()[1] - M) <= 1e-10 * P * st.ell:
             return st, sys_
         raise ConvergenceError(f"moment polish failed: {exc}", {"theta": theta}) from exc
+
+
+def _initial_rotation(profile: Profile, xe: float) -> float:
+    """The rotation that puts the minimum of ``h0 - theta x`` at the load centre ``xe``: the
+    slope there where h0 is curved, else 0.  On a straight piece that slope would make the piece
+    flat: out to infinity for a wedge's face (the tilt limit; the first-touch zone then grows
+    without bound and exhausted the memory after ~50 s), or a flat facet beyond the tilt limits
+    of a double wedge whose inner faces are steeper than the outer ones (no solution)."""
+    x = np.array([xe])
+    slope, curvature = float(profile.dh0(x)[0]), float(profile.d2h0(x)[0])
+    lo, hi = profile.tilt_limits
+    if np.isfinite(slope) and curvature != 0.0 and lo < slope < hi:
+        return slope
+    return 0.0
 
 
 def _moment_or_nan(profile: Profile, P: float, A: float, theta: float) -> float:

@@ -268,7 +268,8 @@ def squad_nodes(plan: SquadPlan, profile: Profile, edges: np.ndarray, xc: float,
     half = 0.5 * (hi - lo)
     s = (0.5 * (lo + hi))[:, plan.seg] + half[:, plan.seg] * plan.t
     w = plan.w * (half**plan.power * plan.sign)[:, plan.seg]
-    logs = np.log(np.abs(s[:, :, None] - edges[:, None, :]))
+    with np.errstate(divide="ignore"):  # a zone within ulps of its width: non-finite, rejected
+        logs = np.log(np.abs(s[:, :, None] - edges[:, None, :]))
     Om = w * np.exp(np.einsum("kne,ne->kn", logs, plan.expo))
     dh = _segment_slopes(plan, profile, s) - theta[:, None]
     return SQuad(s - xc, Om, np.abs(Om), dh)
@@ -342,6 +343,7 @@ def cauchy_sums(sq: SQuad, xh: np.ndarray, H: np.ndarray,
 
 
 FAR_NODES = 48
+GAP_CHUNK = 32  # targets per batch of gap integrals (a plan's maps are dense: parts x nodes)
 
 
 @dataclass(frozen=True)
@@ -597,8 +599,12 @@ class Batch:
         el = self.layout.edges.tolist()
         if self.profile.global_piece is not None:
             return [self.profile.global_piece] * len(el)
-        probes = np.array([x + (1.0 if i % 2 == 0 else -1.0) * 1e-9
-                           * max(self.profile.scale, abs(x), 1e-300) for i, x in enumerate(el)])
+        width = np.repeat(np.diff(self.layout.edges.reshape(-1, 2), axis=1).ravel(), 2)
+        # never past the zone's middle: a zone narrower than the probe step, pinned at a corner,
+        # took the piece beyond the corner (g off by the step of h0 there, 0.0585 accepted)
+        probes = np.array([x + (1.0 if i % 2 == 0 else -1.0)
+                           * min(1e-9 * max(self.profile.scale, abs(x), 1e-300), 0.5 * w)
+                           for i, (x, w) in enumerate(zip(el, width.tolist(), strict=True))])
         ks = self.profile.piece_index(probes).tolist()
         return [self.profile.pieces[max(k, 0)] for k in ks]
 
@@ -650,7 +656,8 @@ class Batch:
         H = np.zeros(x.shape)
         for pc, nodes in plan.groups:
             H[:, nodes] = pc.dh(x[:, nodes]) - self.theta[:, None]
-        logs = np.log(np.abs(x[:, :, None] - self.edges[:, None, :]))
+        with np.errstate(divide="ignore"):  # a target within an ulp of its edge: x == edge
+            logs = np.log(np.abs(x[:, :, None] - self.edges[:, None, :]))
         logs[(slice(None), *plan.graded)] = 0.0  # the edge's own factor is in the graded weight
         vals = w * np.exp(logs @ self.layout.eps) * self.B(x - self.xc, H, off_nodes=True)
         return (vals @ plan.sums) / np.pi
@@ -868,9 +875,16 @@ class System:
         """Deformed gap at ``x_to[j]`` (where ``h = h_to[j]``), integrated from edge ``idx[j]``
         (``g = 0`` there) on the outer side: ``g = h(x) - h(x0) + int_{x0}^{x} w'`` with
         ``int w' = S - (h(x_e) - h(x0))`` (see :meth:`Batch.gap_sums`), so
-        ``g = h(x) - h(x_e) + S``.  One evaluation of B for all points."""
-        x_to = np.asarray(x_to, float)
-        plan = self.batch.gap_plan(np.asarray(idx).tolist(), x_to.tolist())
+        ``g = h(x) - h(x_e) + S``.  One evaluation of B per GAP_CHUNK points (memory and time
+        stay linear in the number of points)."""
+        x_to, idx, h_to = (np.asarray(v) for v in (x_to, idx, h_to))
+        if x_to.size > GAP_CHUNK:
+            return np.concatenate([self.gaps_from_edges(idx[k:k + GAP_CHUNK],
+                                                        x_to[k:k + GAP_CHUNK],
+                                                        h_to[k:k + GAP_CHUNK])
+                                   for k in range(0, x_to.size, GAP_CHUNK)])
+        x_to = x_to.astype(float)
+        plan = self.batch.gap_plan(idx.tolist(), x_to.tolist())
         S = self.batch.gap_sums(plan, x_to[None, :])
         ends = self.batch.graded_ends(plan, x_to[None, :])
         return h_to - self.batch.h_at(ends, plan.pieces)[0] + S[0]

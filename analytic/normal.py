@@ -33,6 +33,8 @@ FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
 ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
 MAX_TOPOLOGY_CHANGES = 12
 START_FRACTION = 2e-3       # first-touch zone size relative to the local feature size
+FIRST_LOAD_FRACTION = 1e-3  # first-touch load of a zone pinned at both ends (x target):
+                            # the continuation then meets the next zones at small overlap
 
 
 # ---------------------------------------------------------------------------------------------
@@ -357,14 +359,19 @@ def _touch_set(profile: Profile, theta: float) -> list[tuple[float, float, float
     return [m for m in mins if m[2] <= low + tol]
 
 
-def _start_zone(profile: Profile, lo: float, hi: float, size: float) -> tuple[list, list]:
+def _start_zone(profile: Profile, lo: float, hi: float, size: float, theta: float = 0.0
+                ) -> tuple[list, list]:
     """Tiny zone around a first-touch point / flat face: edges and singular flags."""
     corners = profile.pin_points
     at_lo, at_hi = lo in corners, hi in corners
     if lo == hi:
         if at_lo:
-            # a corner touches first: pinned corner, free edge inwards
-            inward = 1.0 if np.isfinite(profile.h0(np.array([lo + size]))[0]) else -1.0
+            # a corner touches first: pinned corner, free edge inwards, on the lower side (beside
+            # a punch in a union, h0 is finite but higher beyond the corner: the zone was started
+            # there and the first-touch load came out negative)
+            x = np.array([lo - size, lo + size])
+            h = profile.h0(x) - theta * x
+            inward = 1.0 if h[1] < h[0] else -1.0
             pair = sorted([lo, lo + inward * size])
             return pair, [pair[0] == lo, pair[1] == lo]
         return [lo - size, hi + size], [False, False]
@@ -387,7 +394,7 @@ def _initial_state(profile: Profile, A: float, theta: float, P_target: float) ->
         edges, pinned = [], []
         for lo, hi, _v in touches:
             size = frac * _feature_size(profile, 0.5 * (lo + hi), touches)
-            e2, p2 = _start_zone(profile, lo, hi, size)
+            e2, p2 = _start_zone(profile, lo, hi, size, theta)
             edges += e2
             pinned += p2
         layout = Layout(np.asarray(edges, float), np.asarray(pinned, bool))
@@ -411,10 +418,10 @@ def _solve_driver(st: _State, profile: Profile, A: float, P_target: float) -> _S
     """First state: one free edge held, the load is an output (displacement-like control)."""
     lay = st.layout
     free = np.flatnonzero(~lay.pinned)
-    if free.size == 0:
-        st.P = P_target
-        st.beta = _beta_for(st, A, P_target)
-        st, _ = _newton(st, _Mode(P_target, None), profile, A)
+    if free.size == 0:  # every edge at a corner: the load is free, start low
+        st.P = FIRST_LOAD_FRACTION * P_target
+        st.beta = _beta_for(st, A, st.P)
+        st, _ = _newton(st, _Mode(st.P, None), profile, A)
         return st
     mode = _Mode(None, None, driver=int(free[-1]))
     if lay.e < lay.n:
@@ -544,6 +551,35 @@ def _slope_minima(x: np.ndarray, gp: np.ndarray, end_at_edge: bool = False) -> n
     return np.asarray(out, float)
 
 
+REFINE_STEPS = 4     # Newton steps on g' from every gap candidate
+REFINE_FD = 1e-6     # their finite-difference step for g'' (x scale, at most 1/4 of the clearance)
+
+
+def _refined_minima(sys_: System, x: np.ndarray, profile: Profile) -> np.ndarray:
+    """The candidates moved by Newton steps on ``g'`` (``g''`` by central differences, steps
+    only where ``g'' > 0`` and at most half-way to the nearest edge), kept where they stay outside
+    the zones on finite h0.  A candidate is a minimum of ``h0 - theta x`` or a linear
+    interpolation of a sign change of ``g'`` on a coarse run; the minimum of g lies off it by
+    ``u'/h''`` (the elastic slope from the zones), and just before a zone is born g there is still
+    positive while the true minimum is not (g = -2.2e-7 = -1.4e-5 A P accepted on a union of
+    cylinders).  The originals are kept, so a stray step only costs a sample."""
+    e = sys_.layout.edges
+    if not x.size:
+        return x
+    for _ in range(REFINE_STEPS):
+        clear = np.min(np.abs(x[:, None] - e[None, :]), axis=1)
+        d = np.minimum(REFINE_FD * profile.scale, 0.25 * clear)
+        _, gp = sys_.pressure_and_slope(np.zeros(0), np.concatenate([x - d, x + d]))
+        lo, hi = gp[:x.size], gp[x.size:]
+        curv = (hi - lo) / (2 * d)
+        step = np.where(curv > 0, -0.5 * (lo + hi) / np.where(curv > 0, curv, 1.0), 0.0)
+        x = x + np.clip(step, -0.5 * clear, 0.5 * clear)
+    lo_s, hi_s = profile.support
+    keep = (x > lo_s) & (x < hi_s) & ~_inside(x, e) & np.isfinite(x)
+    x = x[keep]
+    return x[np.isfinite(profile.h0(x))]
+
+
 @dataclass(frozen=True)
 class _Event:
     kind: str       # "add", "merge", "grow", "split", "shrink", "release", "pin"
@@ -561,6 +597,7 @@ def _find_event(st: _State, sys_: System, profile: Profile, A: float) -> _Event 
     if np.min(p) < -ADMISSIBLE_TOL * P_scale:
         return _pressure_event(st, xi, p)
     xo = _gap_candidates(st, profile, runs, closed, gp)
+    xo = np.concatenate([xo, _refined_minima(sys_, xo, profile)])
     if xo.size:
         g = deformed_gap(sys_, xo)
         st.checks["min_gap"] = float(np.min(g))
@@ -885,6 +922,13 @@ def _validate(profile: Profile, P: float, A: float) -> None:
         raise InputError(f"P={P!r} is not allowed: need a finite load P > 0")
 
 
+def _validate_theta(profile: Profile, theta: float) -> None:
+    lo, hi = profile.tilt_limits
+    if not (np.isfinite(theta) and lo < theta < hi):
+        raise InputError(f"theta={theta!r} is not allowed: h0 - theta x must rise towards both "
+                         f"ends, need {lo:.6g} < theta < {hi:.6g} (the body tips off)")
+
+
 def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
                  ) -> NormalSolution:
     """Solve the normal contact problem at load P (paper Sections 2-4, any number of zones).
@@ -924,6 +968,7 @@ def solve_normal_fixed_rotation(profile: Profile, P: float, A: float, theta: flo
     """Normal problem with the rigid rotation prescribed (the stick-zone reduced problem)."""
     P, A = float(P), float(A)
     _validate(profile, P, A)
+    _validate_theta(profile, float(theta))
     st, sys_ = _solve_fixed(profile, P, A, float(theta))
     return _finish(st, sys_, profile, A, "fixed-rotation")
 
@@ -950,6 +995,7 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     for P in loads:
         _validate(profile, float(P), A)
     th = 0.0 if theta is None else float(theta)
+    _validate_theta(profile, th)
     mode = "vertical" if theta is None else "fixed-rotation"
     st, _ = _solve_fixed(profile, float(loads[order[0]]), A, th)
     prev: tuple[_State, ...] = ()

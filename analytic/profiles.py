@@ -141,6 +141,19 @@ class Profile:
         """Where a contact edge may be singular: sharp corners and ridges."""
         return tuple(sorted(set(self.corners) | set(self.ridges)))
 
+    @cached_property
+    def tilt_limits(self) -> tuple[float, float]:
+        """Open range of rotations theta for which ``h0 - theta x`` is bounded below and rises
+        towards both ends: the slopes of unbounded straight end pieces (a wedge's faces), else
+        -inf / +inf.  At a limit an end piece of the tilted profile is flat out to infinity."""
+        out = []
+        for pc, side in ((self.pieces[0], -1), (self.pieces[-1], +1)):
+            end = pc.lo if side < 0 else pc.hi
+            far = np.array([_far(self, side)])
+            straight = not np.isfinite(end) and float(pc.d2h(far)[0]) == 0.0
+            out.append(float(pc.dh(far)[0]) if straight else side * INF)
+        return out[0], out[1]
+
     @property
     def support(self) -> tuple[float, float]:
         """Convex hull of the support."""

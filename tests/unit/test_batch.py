@@ -10,7 +10,7 @@ import pytest
 
 import analytic
 from analytic import normal, profiles
-from analytic._sie import GRADING, Batch, Layout, System, graded_rule
+from analytic._sie import GAP_CHUNK, GRADING, Batch, Layout, System, graded_rule
 
 ROUNDOFF = 1e-12
 """Same sums in a different order / batch shape: agreement to a few ulps of the sums' scale."""
@@ -112,3 +112,15 @@ def test_jacobian_in_one_batch_matches_column_differences(solved) -> None:
             trial = normal._unpack(zp, st, mode, solved.A)
             col = (normal._residual(trial, mode, solved.profile, solved.A)[0] - F) / steps[j]
             assert np.allclose(J[:, j], col, rtol=0, atol=FD_NOISE * np.max(np.abs(J)))
+
+
+def test_gap_at_many_points_is_the_gap_point_by_point(solved) -> None:
+    """``gap`` on more points than one chunk of gap integrals (GAP_CHUNK, which keeps memory
+    linear in the number of points) agrees with one point at a time."""
+    e = np.ravel(solved.zones)
+    span = e[-1] - e[0]
+    x = np.linspace(e[0] - 0.5 * span, e[-1] + 0.5 * span, 3 * GAP_CHUNK + 5)
+    g = solved.gap(x)
+    one = np.array([solved.gap(x[j:j + 1])[0] for j in range(0, x.size, 7)])
+    assert np.allclose(g[::7], one, rtol=0, atol=ROUNDOFF * (solved.A * solved.P + 1.0))
+    assert np.count_nonzero(g > 0) > x.size // 4  # the test has teeth: most points are in gaps

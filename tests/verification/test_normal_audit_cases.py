@@ -1,0 +1,136 @@
+"""Cases of the randomised admissibility audit (seed 2026) that raised instead of solving.
+
+- Applied moment on a wedge or double wedge: the moment search started from the rotation
+  ``h0'(M/P)``, which makes the loaded straight face exactly flat.  On a wedge that face is then
+  flat out to infinity (the first-touch zone grew without bound: MemoryError after ~50 s); on a
+  double wedge with inner faces steeper than the outer ones the tilted profile falls towards one
+  end (ConvergenceError "fixed-rotation solve failed at the initial rotation").
+- A sharp flat punch beside a cylinder: the punch face touches first with both edges at its
+  corners, and the first state was solved at the full load, so the cylinder zone was added
+  deep in its overlap and the continuation had no load left to step back
+  (ConvergenceError "continuation stalled at P=1.5").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import analytic
+from analytic import profiles
+from analytic._moment import _initial_rotation
+from compare.bem import solve_normal_bem
+
+BEM_N = 4096
+BEM_THETA_TOL = 1e-6
+"""|theta_analytic - theta_BEM| at N = 4096 (first order in the panel width; 3e-8 off on the
+double wedge, whose zones are 0.02 wide)."""
+EDGE_PANELS = 2.0
+"""Free edges agree with the BEM's sqrt-edge estimates within this many panels."""
+
+
+def _agrees_with_bem(sol: analytic.NormalSolution, window: tuple[float, float],
+                     M: float | None = None) -> None:
+    bem = solve_normal_bem(sol.profile, window, BEM_N, sol.P, sol.A, M=M)
+    assert len(bem.zones) == sol.n_zones
+    assert np.max(np.abs(np.asarray(bem.zones) - np.asarray(sol.zones))) < EDGE_PANELS * bem.dx
+    if M is not None:
+        assert abs(bem.theta - sol.theta) < BEM_THETA_TOL
+
+
+def test_moment_on_a_steep_inner_double_wedge() -> None:
+    """Audit case 37: phi_inner > phi_outer, load centre on an inner face (~1.5 s)."""
+    prof = profiles.double_wedge(1.2110543333892354, 0.22537995606401892, 0.20782813622168675)
+    P, M = 0.008509249650996533, -0.0006315900664011211
+    sol = analytic.solve_normal(prof, P, 1.0, M)
+    assert sol.n_zones == 2 and abs(sol.M - M) < 1e-10 * P
+    _agrees_with_bem(sol, (-1.3, 1.3), M)
+
+
+def test_moment_initial_rotation_stays_inside_the_tilt_limits() -> None:
+    """On a straight face the start is the vertical rotation, not the face's slope (the limit)."""
+    wedge = profiles.wedge(0.10497372123485114, 0.23999363412886282, apex=0.027261329041935345)
+    lo, hi = wedge.tilt_limits
+    assert (lo, hi) == pytest.approx((-np.tan(0.10497372123485114), np.tan(0.23999363412886282)))
+    assert _initial_rotation(wedge, 0.023) == 0.0
+    cyl = profiles.cylinder(2.0)
+    assert cyl.tilt_limits == (-np.inf, np.inf)
+    assert _initial_rotation(cyl, 0.3) == pytest.approx(0.15)
+
+
+def test_fixed_rotation_at_the_tilt_limit_is_an_input_error() -> None:
+    """theta = -tan(angle_left) makes the wedge's left face flat out to -infinity."""
+    wedge = profiles.wedge(0.1, 0.2)
+    with pytest.raises(analytic.InputError, match="tips"):
+        analytic.solve_normal_fixed_rotation(wedge, 0.01, 1.0, -np.tan(0.1))
+
+
+def test_moment_on_a_wedge() -> None:
+    """Audit case 188: load centre left of the apex (was MemoryError after ~50 s)."""
+    prof = profiles.wedge(0.10497372123485114, 0.23999363412886282, apex=0.027261329041935345)
+    P, M = 0.003628638486555093, 8.355781663775216e-05
+    sol = analytic.solve_normal(prof, P, 1.0, M)
+    assert sol.n_zones == 1 and abs(sol.M - M) < 1e-10 * P
+    _agrees_with_bem(sol, (-0.05, 0.09), M)
+
+
+def test_sharp_punch_beside_a_cylinder_at_high_load() -> None:
+    """Audit case 27 at P = 1.5: the cylinder zone left of the punch (was ConvergenceError)."""
+    prof = profiles.union(
+        profiles.flat_punch(-0.46815694325037127, 0.46815694325037127, 0.0, 0.023305448637827592),
+        profiles.cylinder(1.4751337099978605, center=-1.0801860210623717,
+                          lift=0.028385489175623852))
+    sol = analytic.solve_normal(prof, 1.5, 1.0)
+    assert sol.n_zones == 2 and sol.singular == [(False, False), (True, True)]
+    _agrees_with_bem(sol, (-3.5, 1.0))
+
+
+def test_zone_born_off_the_profile_minimum_is_found() -> None:
+    """Birth-sweep case: just below the load where the solver used to add the first member's
+    zone, g at the member's minimum of h0 was +1.8e-7 but g = -2.2e-7 (-1.4e-5 A P) beside it
+    (the elastic slope of the far zone moves the minimum of g): one zone was accepted."""
+    prof = profiles.union(profiles.cylinder(1.1104489692603088, 0.3560993213574055,
+                                            0.043677672269813096),
+                          profiles.cylinder(0.31421632232705177, 2.0420592877006762,
+                                            0.041061420919138315),
+                          profiles.cylinder(2.4520874576305247, 2.957349353687505,
+                                            0.02339674764218604))
+    P = 0.0159474892685989
+    sol = analytic.solve_normal(prof, P, 1.0)
+    assert sol.n_zones == 2
+    x = np.linspace(-0.5, 1.2, 81)
+    x = x[(x < sol.zones[0][0]) | (x > sol.zones[0][1])]
+    g = [sol.gap(x[i:i + 20]).min() for i in range(0, x.size, 20)]  # cost ~ (points)^2
+    assert min(g) >= -1e-9 * P
+
+
+def test_gap_beside_a_sliver_zone_at_a_corner() -> None:
+    """A zone 4.4e-10 wide pinned at the punch's right corner (just after its birth): the gap on
+    its outer side was integrated on the piece beyond the corner (the probe 1e-9 of the scale
+    inside the zone crossed it), so sol.gap was off by the step of h0 there (-0.0586)."""
+    w = 0.35313408665542534
+    prof = profiles.union(profiles.flat_punch(-w, w, 0.0, 0.016604920562234775),
+                          profiles.cylinder(2.98785076527286, center=0.9072275197175833,
+                                            lift=0.023779857576412593))
+    P, theta = 0.033625504323227695, 0.04889601476818849
+    sol = analytic.solve_normal_fixed_rotation(prof, P, 1.0, theta)
+    a, b = sol.zones[0]
+    assert b == w and b - a < 1e-9
+    g = sol.gap(a - np.array([1e-12, 1e-8, 1e-4, 1e-2]))
+    assert np.all(g >= 0) and g[0] < 1e-9
+
+
+def test_tilted_sharp_punch_beside_a_cylinder_touches_at_its_corner() -> None:
+    """Birth-sweep profile 5: the tilted face first touches at its right corner, and the start
+    zone was put beyond the corner (on the cylinder, where h0 is finite but 0.26 higher): the
+    first-touch load came out negative at every load (ConvergenceError)."""
+    w = 0.5290012369639672
+    prof = profiles.union(profiles.flat_punch(-w, w, 0.0, 0.004505991872113556),
+                          profiles.cylinder(2.5041128803115043, center=0.9197339485963532,
+                                            lift=0.011383385146509373))
+    P, theta = 3e-4, 0.008999169301061025
+    sol = analytic.solve_normal_fixed_rotation(prof, P, 1.0, theta)
+    assert sol.zones[0][1] == w and sol.singular[0][1]
+    bem = solve_normal_bem(lambda x: prof.h0(x) - theta * x, (0.2, 0.8), BEM_N, P, 1.0)
+    assert len(bem.zones) == sol.n_zones
+    assert np.max(np.abs(np.asarray(bem.zones) - np.asarray(sol.zones))) < EDGE_PANELS * bem.dx
