@@ -30,8 +30,7 @@ def check_tipping(profile: Profile, P: float, M: float) -> float:
 
 
 def _moment_at(profile: Profile, P: float, A: float, theta: float):
-    lo, hi = profile.tilt_limits
-    if not lo < theta < hi:  # h0 - theta x flat or falling out to infinity: no solution
+    if not profile.admits_tilt(theta):  # h0 - theta x flat or falling out to infinity
         return None
     try:
         st, sys_ = _solve_fixed(profile, P, A, theta)
@@ -87,8 +86,7 @@ def _initial_rotation(profile: Profile, xe: float) -> float:
     of a double wedge whose inner faces are steeper than the outer ones (no solution)."""
     x = np.array([xe])
     slope, curvature = float(profile.dh0(x)[0]), float(profile.d2h0(x)[0])
-    lo, hi = profile.tilt_limits
-    if np.isfinite(slope) and curvature != 0.0 and lo < slope < hi:
+    if np.isfinite(slope) and curvature != 0.0 and profile.admits_tilt(slope):
         return slope
     return 0.0
 

@@ -122,6 +122,10 @@ class Layout:
     def zones(self) -> list[tuple[float, float]]:
         return [(float(a), float(b)) for a, b in self.edges.reshape(-1, 2)]
 
+    def edge_widths(self) -> np.ndarray:
+        """Width of the zone each edge belongs to ``(2n,)``."""
+        return np.repeat(np.diff(self.edges.reshape(-1, 2), axis=1).ravel(), 2)
+
     def with_edges(self, edges: np.ndarray) -> Layout:
         return Layout(np.asarray(edges, float), self.pinned)
 
@@ -599,7 +603,7 @@ class Batch:
         el = self.layout.edges.tolist()
         if self.profile.global_piece is not None:
             return [self.profile.global_piece] * len(el)
-        width = np.repeat(np.diff(self.layout.edges.reshape(-1, 2), axis=1).ravel(), 2)
+        width = self.layout.edge_widths()
         # never past the zone's middle: a zone narrower than the probe step, pinned at a corner,
         # took the piece beyond the corner (g off by the step of h0 there, 0.0585 accepted)
         probes = np.array([x + (1.0 if i % 2 == 0 else -1.0)
@@ -648,9 +652,7 @@ class Batch:
         one evaluation of B."""
         if plan.part.size == 0:
             return np.zeros(x_to.shape)
-        x0 = self.edges[:, plan.edge]
-        D = np.abs(x_to - x0)
-        L = np.minimum(D, 0.5 * np.abs(plan.reach - x0))
+        _, D, L = self._graded_lengths(plan, x_to)
         f = np.minimum(L, self._edge_clearances[:, plan.edge])
         x, w = plan.nodes(self.edges, np.concatenate([f, L, D], axis=1))
         H = np.zeros(x.shape)
@@ -665,10 +667,16 @@ class Batch:
     def graded_ends(self, plan: GapPlan, x_to: np.ndarray) -> np.ndarray:
         """The end of each graded part of :meth:`gap_sums` ``(K, parts)``: the target, or the
         limit half-way to the end of the edge piece's continuation."""
+        x0, D, L = self._graded_lengths(plan, x_to)
+        return np.where(L == D, x_to, x0 + plan.direction * L)
+
+    def _graded_lengths(self, plan: GapPlan, x_to: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per integral ``(K, parts)``: its edge ``x0``, ``D = |x_to - x0|`` and the graded
+        length ``L = min(D, half-way to the end of the edge piece's continuation)``."""
         x0 = self.edges[:, plan.edge]
         D = np.abs(x_to - x0)
-        L = np.minimum(D, 0.5 * np.abs(plan.reach - x0))
-        return np.where(L == D, x_to, x0 + plan.direction * L)
+        return x0, D, np.minimum(D, 0.5 * np.abs(plan.reach - x0))
 
     def h_at(self, ends: np.ndarray, pieces: Sequence[Piece]) -> np.ndarray:
         """``h = h0 - theta x`` at the ends ``(K, q)`` of graded parts, from their pieces."""

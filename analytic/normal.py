@@ -307,8 +307,7 @@ def _fd_steps(z: np.ndarray, st: _State, mode: _Mode) -> np.ndarray:
     may be many orders narrower than the span), other unknowns relative to their size."""
     h = FD_STEP * np.maximum(1.0, np.abs(z))
     free = _free_edges(st.layout, mode)
-    widths = np.diff(st.layout.edges.reshape(-1, 2), axis=1).ravel()
-    h[: free.size] = FD_STEP * widths[free // 2] / st.ell
+    h[: free.size] = FD_STEP * st.layout.edge_widths()[free] / st.ell
     return h
 
 
@@ -776,7 +775,7 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         try:
             st, F = _newton(st, _Mode(st.P, M), profile, A)
         except _NewtonFailed as exc:
-            pinned = _pin_nearest(st, profile, A, PIN_DISTANCE * _edge_widths(st.layout))
+            pinned = _pin_nearest(st, profile, A, PIN_DISTANCE * st.layout.edge_widths())
             if pinned is None:
                 raise _StepFailed(str(exc)) from exc
             history.append(_Event("pin", pinned[1]))
@@ -826,11 +825,6 @@ def _shift_poly(beta: np.ndarray, d: float) -> np.ndarray:
 
 
 PIN_DISTANCE = 0.05  # a free edge this close to a corner (fraction of its zone) may pin there
-
-
-def _edge_widths(layout: Layout) -> np.ndarray:
-    """Width of the zone each edge belongs to."""
-    return np.repeat(np.diff(layout.edges.reshape(-1, 2), axis=1).ravel(), 2)
 
 
 def _pin_nearest(st: _State, profile: Profile, A: float, limits: np.ndarray
@@ -923,8 +917,8 @@ def _validate(profile: Profile, P: float, A: float) -> None:
 
 
 def _validate_theta(profile: Profile, theta: float) -> None:
-    lo, hi = profile.tilt_limits
-    if not (np.isfinite(theta) and lo < theta < hi):
+    if not profile.admits_tilt(theta):
+        lo, hi = profile.tilt_limits
         raise InputError(f"theta={theta!r} is not allowed: h0 - theta x must rise towards both "
                          f"ends, need {lo:.6g} < theta < {hi:.6g} (the body tips off)")
 

@@ -154,6 +154,11 @@ class Profile:
             out.append(float(pc.dh(far)[0]) if straight else side * INF)
         return out[0], out[1]
 
+    def admits_tilt(self, theta: float) -> bool:
+        """Whether ``theta`` lies strictly inside :attr:`tilt_limits` (False for nan)."""
+        lo, hi = self.tilt_limits
+        return bool(lo < theta < hi)
+
     @property
     def support(self) -> tuple[float, float]:
         """Convex hull of the support."""
