@@ -140,3 +140,17 @@ def test_bad_files_one_clear_error(tmp_path, mutate, words):
 def test_missing_result_path():
     with pytest.raises(CaseError, match="no such file"):
         read_result("/nonexistent/steps.csv")
+
+
+def test_assert_agrees_fails_on_an_asked_metric_the_result_lacks(tmp_path):
+    """Stage-1 steps without M: moment_error is not available; asking for it fails."""
+    from compare.testing import DisagreementError, assert_agrees
+
+    f = write_result(tmp_path / "noM")
+    f.write_text(f.read_text().replace("stage,P,Q,M,file", "stage,P,Q,file")
+                 .replace(",0.0,0.0,s", ",0.0,s"))
+    res = verify(CASE, f)
+    assert "moment_error" in res.unavailable
+    assert_agrees(res)
+    with pytest.raises(DisagreementError, match="moment_error: the result gives no M"):
+        assert_agrees(res, moment_atol=0.01)
