@@ -172,7 +172,7 @@ def convert(raw: RawStep, conv: Conventions) -> dict:
         i = int(np.flatnonzero(np.diff(x_file) <= 0)[0])
         raise CaseError(f"{raw.where}: x must increase strictly (one row per interface node, "
                         f"sorted by {'x - ux' if conv.x == 'deformed' else 'x'}); node {i + 2} "
-                        f"has x = {x_file[i + 1]!r} after {x_file[i]!r}")
+                        f"has x = {float(x_file[i + 1])!r} after {float(x_file[i])!r}")
     w_file = c["w"] if "w" in c else tributary(x_file)
     if np.any(w_file <= 0):
         raise CaseError(f"{raw.where}: tributary length w must be > 0 at every node")

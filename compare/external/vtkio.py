@@ -75,13 +75,14 @@ def raw_step(mesh, where: str, conv) -> RawStep:
         v = np.asarray(mesh.point_data[n], float).ravel()
         bad = np.isnan(v) | (np.isinf(v) & ((n != "gap") | (v < 0)))
         if bad.any():
-            raise CaseError(f"{where}: point data '{n}' is {v[bad][0]!r} at point "
+            raise CaseError(f"{where}: point data '{n}' is {float(v[bad][0])!r} at point "
                             f"{int(np.flatnonzero(bad)[0])}; allowed: finite numbers")
         cols[n] = v
     st = cols["status"]
-    if not np.all(np.isin(st, (0, 1, 2))):
-        raise CaseError(f"{where}: point data 'status' has {st[~np.isin(st, (0, 1, 2))][0]!r};"
-                        " allowed: 0 open, 1 stick, 2 slip")
+    odd = st[~np.isin(st, (0, 1, 2))]
+    if odd.size:
+        raise CaseError(f"{where}: point data 'status' has {float(odd[0])!r}; allowed: 0 open, "
+                        "1 stick, 2 slip")
     cols["status"] = st.astype(np.int8)
     stage = _field(mesh, "stage", where, True)
     if stage not in (1.0, 2.0, 3.0):

@@ -154,3 +154,53 @@ def test_assert_agrees_fails_on_an_asked_metric_the_result_lacks(tmp_path):
     assert_agrees(res)
     with pytest.raises(DisagreementError, match="moment_error: the result gives no M"):
         assert_agrees(res, moment_atol=0.01)
+
+
+def write_series(folder, loads=(50.0, 100.0), fields=("stage", "P", "Q", "M"), p_edit=None):
+    """A .pvd series of interface .vtu lines (fem.vtk's writer) from the synthetic result."""
+    import meshio
+
+    from fem.vtk import atomic_write_mesh
+
+    folder.mkdir(exist_ok=True)
+    entries = []
+    for k, P in enumerate(loads):
+        p, st = hertz_rows(P)
+        p = p_edit(p) if p_edit and k == 1 else p
+        mesh = meshio.Mesh(np.c_[X, 0 * X, 0 * X], [("line", np.c_[np.arange(X.size - 1),
+                                                                    np.arange(1, X.size)])],
+                           point_data={"p": p, "q": 0 * p, "status": st.astype(np.int32)})
+        values = {"stage": 1, "P": P, "Q": 0.0, "M": 0.0}
+        atomic_write_mesh(mesh, folder / f"i{k}.vtu", {f: values[f] for f in fields})
+        entries.append(f'<DataSet timestep="{k}" part="0" file="i{k}.vtu"/>')
+    pvd = folder / "series.pvd"
+    pvd.write_text('<?xml version="1.0"?><VTKFile type="Collection"><Collection>'
+                   + "".join(entries) + "</Collection></VTKFile>")
+    return pvd
+
+
+def test_vtk_series_verifies_like_csv(tmp_path):
+    a = verify(CASE, write_result(tmp_path / "csv")).metrics
+    b = verify(CASE, write_series(tmp_path / "vtk")).metrics
+    for k, v in a.items():
+        assert b[k] == pytest.approx(v, rel=1e-12, abs=1e-300, nan_ok=True), k
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"fields": ("P", "Q")}, ["series.pvd, step 0 (i0.vtu)", "missing field data 'stage'"]),
+    ({"p_edit": lambda p: np.where(p > 0, np.nan, p)}, ["step 1 (i1.vtu)", "'p' is nan"]),
+])
+def test_bad_vtk_series_one_clear_error(tmp_path, kwargs, words):
+    with pytest.raises(CaseError) as exc:
+        verify(CASE, write_series(tmp_path / "bad", **kwargs))
+    assert all(w in str(exc.value) for w in words), str(exc.value)
+
+
+def test_vtk_series_missing_file_and_no_interface(tmp_path):
+    pvd = write_series(tmp_path / "s")
+    (tmp_path / "s" / "i1.vtu").unlink()
+    with pytest.raises(CaseError, match="step 1.*'i1.vtu' not found"):
+        read_result(pvd)
+    pvd.write_text("<VTKFile><Collection></Collection></VTKFile>")
+    with pytest.raises(CaseError, match="DataSet"):
+        read_result(pvd)

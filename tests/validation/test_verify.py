@@ -23,9 +23,18 @@ def cattaneo(tmp_path_factory):
     return res, folder
 
 
-def test_round_trip_gives_the_metrics_of_run_case(cattaneo):
-    res, folder = cattaneo
-    got = verify("cattaneo", folder, samples="case")
+@pytest.fixture(scope="module")
+def applied_moment(tmp_path_factory):
+    res = run_case("applied_moment")
+    folder = tmp_path_factory.mktemp("export") / "applied_moment"
+    write_result(res.fem, folder, case="applied_moment")
+    return res, folder
+
+
+@pytest.mark.parametrize("name", ["cattaneo", "applied_moment"])
+def test_round_trip_gives_the_metrics_of_run_case(name, request):
+    res, folder = request.getfixturevalue(name)
+    got = verify(name, folder, samples="case")
     assert got.metrics.keys() == res.metrics.keys()
     for k, v in res.metrics.items():
         assert got.metrics[k] == pytest.approx(v, rel=1e-12, abs=1e-300, nan_ok=True), k
