@@ -25,9 +25,9 @@ from compare.errors import CaseError
 from compare.external import ExternalResult, read_result
 from compare.run import CaseResult, checks_for, evaluate
 
-#: The result's loads may differ from the case's by this fraction of P (Q, M: of mu P, P x
-#: contact size): a displacement-driven run reaches the loads only approximately, and the
-#: analytic side is solved at the measured loads, so this only catches another case or units.
+#: The result's loads may differ from the case's by this fraction of P (Q: of mu P; an applied
+#: M: of M): a displacement-driven run reaches the loads only approximately, and the analytic
+#: side is solved at the measured loads, so this only catches another case or other units.
 LOAD_MATCH_RTOL = 0.1
 #: A stage-1 step pairs with a stage-2/3 step for the Jaeger-Ciavarella check when its P is
 #: within this fraction of P0 of the reduced load: p then differs by about this fraction of its
@@ -49,6 +49,9 @@ def check_loads(case: Case, res: ExternalResult, hist: fem.FemHistory) -> None:
         step = hist.stage(2)[-1].index if hist.stage(2) else hist.stage(1)[-1].index
         _bad(where[step], f"Q0 = {Q0:.6g} at the end of stage 2", case.Q0,
              f" +- {tol_q:.4g}")
+    M0 = hist.stage(1)[-1].M
+    if case.M and math.isfinite(M0) and abs(M0 - case.M) > LOAD_MATCH_RTOL * abs(case.M):
+        _bad(where[hist.stage(1)[-1].index], f"M = {M0:.6g} at the end of stage 1", case.M)
     for s in hist.steps:
         _check_step(s, where[s.index], case, P0, Q0, tol_q)
 

@@ -204,3 +204,12 @@ def test_vtk_series_missing_file_and_no_interface(tmp_path):
     pvd.write_text("<VTKFile><Collection></Collection></VTKFile>")
     with pytest.raises(CaseError, match="DataSet"):
         read_result(pvd)
+
+
+def test_applied_moment_must_match(tmp_path):
+    """An applied-moment case: the result's M at the end of stage 1 is checked against it."""
+    from dataclasses import replace
+
+    case = replace(CASE, M=5.0)
+    with pytest.raises(CaseError, match=r"steps.csv, line 3.*M = 0 at the end of stage 1.*\(5"):
+        verify(case, write_result(tmp_path / "m"))
