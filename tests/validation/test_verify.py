@@ -15,20 +15,22 @@ from compare.testing import assert_agrees
 from compare.verify import verify
 
 
+def exported(name: str, tmp_path_factory):
+    """run_case of a library case and its history exported in the exchange format."""
+    res = run_case(name)
+    folder = tmp_path_factory.mktemp("export") / name
+    write_result(res.fem, folder, case=name)
+    return res, folder
+
+
 @pytest.fixture(scope="module")
 def cattaneo(tmp_path_factory):
-    res = run_case("cattaneo")
-    folder = tmp_path_factory.mktemp("export") / "cattaneo"
-    write_result(res.fem, folder, case="cattaneo")
-    return res, folder
+    return exported("cattaneo", tmp_path_factory)
 
 
 @pytest.fixture(scope="module")
 def applied_moment(tmp_path_factory):
-    res = run_case("applied_moment")
-    folder = tmp_path_factory.mktemp("export") / "applied_moment"
-    write_result(res.fem, folder, case="applied_moment")
-    return res, folder
+    return exported("applied_moment", tmp_path_factory)
 
 
 @pytest.mark.parametrize("name", ["cattaneo", "applied_moment"])
