@@ -45,6 +45,10 @@ def check_loads(case: Case, res: ExternalResult, hist: fem.FemHistory) -> None:
     where = {s.index: raw.where for s, raw in zip(hist.steps, res.steps, strict=True)}
     if abs(P0 - P) > LOAD_MATCH_RTOL * P:
         _bad(where[hist.stage(1)[-1].index], f"P = {P0:.6g} at the end of stage 1", P)
+    if case.Q0 > tol_q and not hist.stage(2):
+        raise CaseError(f"{res.source}: the result has no stage-2 steps but the case has "
+                        f"Q0 = {case.Q0:g}; add stages 2 and 3, or verify against a case with "
+                        "Q0 = 0")
     if abs(Q0 - case.Q0) > tol_q:
         step = hist.stage(2)[-1].index if hist.stage(2) else hist.stage(1)[-1].index
         _bad(where[step], f"Q0 = {Q0:.6g} at the end of stage 2", case.Q0,

@@ -213,3 +213,8 @@ def test_applied_moment_must_match(tmp_path):
     case = replace(CASE, M=5.0)
     with pytest.raises(CaseError, match=r"steps.csv, line 3.*M = 0 at the end of stage 1.*\(5"):
         verify(case, write_result(tmp_path / "m"))
+
+
+def test_stage_1_only_result_against_a_case_with_q0(tmp_path):
+    with pytest.raises(CaseError, match="no stage-2 steps but the case has Q0 = 18"):
+        verify(load_case("cattaneo"), write_result(tmp_path / "s1"))
