@@ -218,3 +218,19 @@ def test_applied_moment_must_match(tmp_path):
 def test_stage_1_only_result_against_a_case_with_q0(tmp_path):
     with pytest.raises(CaseError, match="no stage-2 steps but the case has Q0 = 18"):
         verify(load_case("cattaneo"), write_result(tmp_path / "s1"))
+
+
+def test_deformed_x_with_ux_gives_the_same_metrics(tmp_path):
+    ref = verify(CASE, write_result(tmp_path / "ref")).metrics
+    folder = tmp_path / "deformed"
+    write_result(folder, head="# x = deformed\n")
+    ux = 1e-4 * np.sin(7.0 * X)  # any tangential displacement that keeps x sorted
+    for k, P in enumerate((50.0, 100.0)):
+        p, st = hertz_rows(P)
+        write_step(folder / f"s{k}.csv", p, st, x=X + ux, extra={"ux": ux})
+    got = verify(CASE, folder).metrics
+    for k, v in ref.items():
+        assert got[k] == pytest.approx(v, rel=1e-9, abs=1e-12, nan_ok=True), k
+    (folder / "s1.csv").write_text((folder / "s1.csv").read_text().replace(",ux", ",uy"))
+    with pytest.raises(CaseError, match="s1.csv: missing column 'ux'"):
+        verify(CASE, folder)
