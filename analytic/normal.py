@@ -18,6 +18,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import brentq
 
+from analytic import _validate as check
 from analytic._guess import overlap_guess
 from analytic._sie import Batch, Layout, System
 from analytic.errors import ConvergenceError, InputError
@@ -907,13 +908,11 @@ def _try_merge(st: _State, P_next: float, profile: Profile, A: float):
 # ---------------------------------------------------------------------------------------------
 # public API
 # ---------------------------------------------------------------------------------------------
-def _validate(profile: Profile, P: float, A: float) -> None:
-    if not isinstance(profile, Profile):
-        raise InputError(f"profile must be an analytic.profiles.Profile, got {type(profile)!r}")
-    if not np.isfinite(A) or A <= 0:
-        raise InputError(f"A={A!r} is not allowed: need A = 4(1 - nu^2)/E > 0")
-    if not np.isfinite(P) or P <= 0:
-        raise InputError(f"P={P!r} is not allowed: need a finite load P > 0")
+def _validate(profile: Profile, P: float, A: float) -> tuple[float, float]:
+    """Refuse a non-profile, or P, A not finite and > 0 (:mod:`analytic._validate`)."""
+    check.instance("profile", profile, Profile, "an analytic.profiles.Profile")
+    A = check.positive("A", A, "compliance A = 4(1 - nu^2)/E")
+    return check.positive("P", P, "load"), A
 
 
 def _validate_theta(profile: Profile, theta: float) -> None:
@@ -930,8 +929,8 @@ def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
     ``M=None``: vertical indentation (rotation locked; the moment is an output).  ``M`` given:
     applied moment about x = 0; the rigid rotation ``theta`` is an output.
     """
-    P, A = float(P), float(A)
-    _validate(profile, P, A)
+    P, A = _validate(profile, P, A)
+    M = check.optional_real("M", M, "a finite moment, or None for vertical indentation")
     if M is None:
         st, sys_ = _solve_fixed(profile, P, A, 0.0)
         return _finish(st, sys_, profile, A, "vertical")
@@ -960,10 +959,10 @@ def _solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[_S
 def solve_normal_fixed_rotation(profile: Profile, P: float, A: float, theta: float
                                 ) -> NormalSolution:
     """Normal problem with the rigid rotation prescribed (the stick-zone reduced problem)."""
-    P, A = float(P), float(A)
-    _validate(profile, P, A)
-    _validate_theta(profile, float(theta))
-    st, sys_ = _solve_fixed(profile, P, A, float(theta))
+    P, A = _validate(profile, P, A)
+    theta = check.real("theta", theta)
+    _validate_theta(profile, theta)
+    st, sys_ = _solve_fixed(profile, P, A, theta)
     return _finish(st, sys_, profile, A, "fixed-rotation")
 
 
@@ -975,9 +974,10 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     rotation is prescribed (the stick-zone problems of stage 2/3).  Otherwise vertical indentation.
     Results are returned in the order of ``loads``.
     """
-    loads = np.asarray(loads, float)
-    if loads.ndim != 1 or loads.size == 0:
-        raise InputError("loads must be a non-empty 1-D sequence")
+    loads = check.vector("loads", loads, 1, lambda v: bool(np.all(v > 0)),
+                         "a non-empty 1-D sequence of finite loads > 0")
+    _, A = _validate(profile, loads[0], A)
+    M, theta = check.optional_real("M", M), check.optional_real("theta", theta)
     if M is not None and theta is not None:
         raise InputError("give either M (applied moment) or theta (prescribed rotation), not both")
     order = np.argsort(loads)
@@ -986,8 +986,6 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
         for i in order:
             out[i] = solve_normal(profile, loads[i], A, M)
         return out  # type: ignore[return-value]
-    for P in loads:
-        _validate(profile, float(P), A)
     th = 0.0 if theta is None else float(theta)
     _validate_theta(profile, th)
     mode = "vertical" if theta is None else "fixed-rotation"
