@@ -29,6 +29,7 @@ NEWTON_MAXIT = 40
 STEP_TOL = 1e-12            # ... and the next Newton step moves no unknown (edges / span) more
 POLISH_STEPS = 3            # steps allowed beyond NEWTON_TOL to meet STEP_TOL
 FLOOR_TOL = 1e-10          # accepted when rounding stalls Newton (zones ~1e-6 of the span)
+ULP_FLOOR = 64.0            # ... or below the residual change of this many ulps of the edges
 REFRESH_RATIO = 0.1         # a reused Jacobian gaining less than this per step is refreshed
 FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
 ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
@@ -247,7 +248,7 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
     if not np.isfinite(norm):
         raise _NewtonFailed("non-finite residual at the start", {"residual": norm})
     J = st.jac if st.jac is not None and st.jac.shape == (F.size, z.size) else None
-    fresh, polish = False, 0
+    fresh, polish, floor = False, 0, FLOOR_TOL
     for it in range(NEWTON_MAXIT):
         if norm < NEWTON_TOL:
             dz = _polish_step(J, F) if polish < POLISH_STEPS else None
@@ -257,6 +258,7 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
         else:
             if J is None:
                 J, fresh = _jacobian(z, F, st, mode, profile, A), True
+                floor = _rounding_floor(J, st, mode)
             try:
                 dz = np.linalg.solve(J, -F)
             except np.linalg.LinAlgError as exc:
@@ -271,24 +273,35 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
         if not polish and nt > REFRESH_RATIO * norm and not fresh:
             J = None  # stale Jacobian: refresh and retry from the same point
             continue
-        if not polish and nt > 0.5 * norm and norm < FLOOR_TOL:
+        if not polish and nt > 0.5 * norm and norm < floor:
             break  # rounding floor reached with a fresh Jacobian: accept
-        if nt >= norm and nt > FLOOR_TOL:
+        if nt >= norm and nt > floor:
             raise _NewtonFailed("no descent", {"residual": norm, "iteration": it})
         step = zt - z
         if step @ step > 0:  # Broyden's rank-one update keeps the reused Jacobian current
             J = J + np.outer(Ft - F - J @ step, step) / (step @ step)
         st, z, F, fresh = trial, zt, Ft, False
-        if np.max(np.abs(dz)) < 1e-15 and nt < FLOOR_TOL:
+        if np.max(np.abs(dz)) < 1e-15 and nt < floor:
             norm = nt
             break
         norm = nt
     else:
-        if norm >= FLOOR_TOL:
+        if norm >= floor:
             raise _NewtonFailed("too many iterations", {"residual": norm,
                                                         "iteration": NEWTON_MAXIT})
     st.jac = J
     return st, F
+
+
+def _rounding_floor(J: np.ndarray, st: _State, mode: _Mode) -> float:
+    """Residual level below which Newton may stop: FLOOR_TOL, or the change of the residuals
+    when every free edge moves by ULP_FLOOR units in the last place of its absolute position,
+    if larger.  Edges are stored as x, so an edge a distance d past a kink (a rounded corner's
+    start at a small load, d ~ P^(2/3)) carries a relative load error ~ eps |x| / d."""
+    free = _free_edges(st.layout, mode)
+    ulp = np.zeros(J.shape[1])
+    ulp[: free.size] = np.spacing(np.abs(st.layout.edges[free])) / st.ell
+    return max(FLOOR_TOL, ULP_FLOOR * float(np.max(np.abs(J) @ ulp, initial=0.0)))
 
 
 def _polish_step(J: np.ndarray | None, F: np.ndarray) -> np.ndarray | None:
@@ -303,19 +316,23 @@ def _polish_step(J: np.ndarray | None, F: np.ndarray) -> np.ndarray | None:
     return dz if np.max(np.abs(dz)) > STEP_TOL else None
 
 
-def _fd_steps(z: np.ndarray, st: _State, mode: _Mode) -> np.ndarray:
+def _fd_steps(z: np.ndarray, st: _State, mode: _Mode, profile: Profile) -> np.ndarray:
     """Finite-difference steps: an edge moves by FD_STEP times the width of its own zone (zones
-    may be many orders narrower than the span), other unknowns relative to their size."""
+    may be many orders narrower than the span) or its distance to the nearest kink, if smaller
+    (an edge just past a rounded corner's start at a small load), other unknowns relative to
+    their size."""
     h = FD_STEP * np.maximum(1.0, np.abs(z))
     free = _free_edges(st.layout, mode)
-    h[: free.size] = FD_STEP * st.layout.edge_widths()[free] / st.ell
+    edges = st.layout.edges[free]
+    smooth = np.minimum(st.layout.edge_widths()[free], profile.feature_distance(edges))
+    h[: free.size] = FD_STEP * smooth / st.ell
     return h
 
 
 def _jacobian(z, F, st, mode, profile, A) -> np.ndarray:
     """Forward differences, all columns in one batch evaluation with the discretisation frozen
     on the current layout (the base point is evaluated in the same batch)."""
-    steps = _fd_steps(z, st, mode)
+    steps = _fd_steps(z, st, mode, profile)
     states = [st]
     for j in range(z.size):
         zp = z.copy()

@@ -25,6 +25,8 @@ from analytic import _validate as check
 Func = Callable[[np.ndarray], np.ndarray]
 INF = float("inf")
 MINIMA_MEMO_SIZE = 256  # rotations remembered per profile (a moment solve visits ~50)
+FLAT_TILT = 1e-12  # a flat face tilted by less than this (height change / scale) stays flat,
+                   # like the first-touch tolerance: its ends touch together (moment searches)
 
 
 @dataclass(frozen=True)
@@ -142,6 +144,19 @@ class Profile:
         return tuple(sorted(set(self.corners) | set(self.ridges)))
 
     @cached_property
+    def _features(self) -> np.ndarray:
+        return np.array(sorted(set(self.kinks) | set(self.corners)), float)
+
+    def feature_distance(self, x: np.ndarray) -> np.ndarray:
+        """Distance from each x to the nearest kink or corner (``inf`` if there is none, or where
+        x sits on one): the length over which h0 stays smooth around x."""
+        x = np.asarray(x, dtype=float)
+        if self._features.size == 0:
+            return np.full(x.shape, INF)
+        d = np.min(np.abs(x[..., None] - self._features), axis=-1)
+        return np.where(d > 0, d, INF)
+
+    @cached_property
     def tilt_limits(self) -> tuple[float, float]:
         """Open range of rotations theta for which ``h0 - theta x`` is bounded below and rises
         towards both ends: the slopes of unbounded straight end pieces (a wedge's faces), else
@@ -167,7 +182,8 @@ class Profile:
     def local_minima(self, theta: float = 0.0) -> list[tuple[float, float, float]]:
         """Local minima of ``h0(x) - theta x`` as ``(x_lo, x_hi, value)``.
 
-        A flat piece at ``theta == 0`` gives an interval; every other minimum is a point.
+        A flat piece at ``theta == 0`` (or tilted by less than FLAT_TILT) gives an interval;
+        every other minimum is a point.
         Memoised per theta (the solver asks for the same rotation many times).
         """
         key = float(theta)
@@ -196,7 +212,7 @@ class Profile:
 def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]:
     lo = pc.lo if np.isfinite(pc.lo) else _far(prof, -1)
     hi = pc.hi if np.isfinite(pc.hi) else _far(prof, +1)
-    if pc.flat and theta == 0.0:
+    if pc.flat and abs(theta) * (hi - lo) <= FLAT_TILT * prof.scale:
         return [(pc.lo, pc.hi, float(pc.h(np.array([pc.lo]))[0]))]
     xs = np.linspace(lo, hi, 401)
     f = pc.h(xs) - theta * xs
@@ -206,8 +222,19 @@ def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]
         out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
     for end, x_end, inner in ((0, pc.lo, f[1]), (-1, pc.hi, f[-2])):
         if np.isfinite(x_end) and f[end] <= inner and _end_is_low(prof, k, end):
-            out.append((x_end, x_end, float(f[end])))
+            xm = _inside_end_min(pc, theta, x_end, xs[1] if end == 0 else xs[-2])
+            out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
     return out
+
+
+def _inside_end_min(pc: Piece, theta: float, x_end: float, x_next: float) -> float:
+    """A piece end that samples lower than its neighbour sample, or the minimum between them
+    when ``h0 - theta x`` still falls going inwards from the end (a tilted face meeting a
+    rounded corner: the minimum lies on the corner, closer than one sample to the kink)."""
+    inward = np.sign(x_next - x_end)
+    if inward * (float(pc.dh(np.array([x_end]))[0]) - theta) >= 0:
+        return x_end
+    return _refine_min(pc, theta, min(x_end, x_next), max(x_end, x_next))
 
 
 def _far(prof: Profile, side: int) -> float:
@@ -337,6 +364,8 @@ def flat_punch(left: float, right: float, corner_radius: float = 0.0, lift: floa
     else:
         lp = _arc(rho, left, -1, left - rho, left, lift)
         rp = _arc(rho, right, +1, right, right + rho, lift)
+        ends = (left - rho, right + rho)  # h0 = +inf beyond the quarter circles
+        return Profile((lp, face, rp), ends, (left, right), scale, "flat_punch", params)
     return Profile((lp, face, rp), (), (left, right), scale, "flat_punch", params)
 
 
