@@ -13,9 +13,11 @@ import math
 import tomllib
 from dataclasses import dataclass, field, replace
 from importlib import resources
+from numbers import Integral
 from pathlib import Path
 from typing import Any
 
+from analytic import _validate as check
 from analytic import profiles
 from analytic.errors import InputError as AnalyticInputError
 from analytic.profiles import Profile
@@ -45,6 +47,17 @@ SAMPLE_KEYS = {"stage2": [0.5, 0.75, 1.0], "stage3": [0.0, -0.5, -1.0]}
 FEM_KEYS = {"level": 1, "order": 1, "mesh_file": "", "penalty_factor": 100.0,
             "augmented": False, "n_normal": 10, "n_tangential": 8, "size_factor": 25.0,
             "window_margin": 0.05, "growth": 1.2}
+#: Allowed ranges of the numeric FE settings (test, what is allowed).
+FEM_RANGES = {
+    "level": (lambda v: -3 <= v <= 6, "-3 <= level <= 6"),
+    "order": (lambda v: v in (1, 2), "1 or 2"),
+    "penalty_factor": (lambda v: v > 0, "> 0"),
+    "n_normal": (lambda v: v >= 1, ">= 1"),
+    "n_tangential": (lambda v: v >= 1, ">= 1"),
+    "size_factor": (lambda v: v >= 2, ">= 2"),
+    "window_margin": (lambda v: 0 <= v <= 1, "0 <= window_margin <= 1"),
+    "growth": (lambda v: 1 < v <= 2, "1 < growth <= 2"),
+}
 DEFAULT_NU = 0.3  # used to split a given composite compliance A into (E, nu) for the FE side
 
 
@@ -100,6 +113,10 @@ class Case:
     description: str = ""
     source: str = ""
 
+    def __post_init__(self) -> None:
+        for key, value in _checked_fields(self).items():
+            object.__setattr__(self, key, value)
+
     @property
     def A(self) -> float:
         """Composite compliance ``4 (1 - nu^2) / E``."""
@@ -119,6 +136,46 @@ class Case:
                 "Q0": self.Q0, "M": self.M, "stage2": list(self.stage2),
                 "stage3": list(self.stage3), "fem": vars(self.fem).copy(),
                 "tolerances": dict(self.tolerances), "source": self.source}
+
+
+def _checked_fields(case: Case) -> dict[str, Any]:
+    """The numeric fields of a :class:`Case` as floats / tuples, or :class:`CaseError` naming
+    the field, its value and what is allowed (the checks of :mod:`analytic._validate`)."""
+    try:
+        check.instance("profile", case.profile, Profile, "an analytic.profiles.Profile")
+        check.instance("fem", case.fem, FemSettings, "a compare.cases.FemSettings")
+        if not isinstance(case.name, str) or not case.name:
+            raise check.refuse("name", case.name, "a non-empty string")
+        P, mu = check.positive("P", case.P, "load"), check.positive("mu", case.mu)
+        out = {"P": P, "mu": mu, "E": check.positive("E", case.E, "Young's modulus"),
+               "nu": check.real("nu", case.nu, "-1 < nu < 0.5", lambda v: -1 < v < 0.5),
+               "Q0": check.real("Q0", case.Q0, f"0 <= Q0 <= mu*P = {mu * P:g}",
+                                lambda v: 0 <= v <= mu * P * (1 + 1e-12)),
+               "M": check.optional_real("M", case.M, "a finite moment or None")}
+        _check_fem_settings(case.fem)
+        for key in ("stage2", "stage3"):
+            out[key] = tuple(check.vector(key, getattr(case, key), 0).tolist())
+        if not isinstance(case.tolerances, dict):
+            raise check.refuse("tolerances", case.tolerances, "a dict of tolerance names to values")
+        for key, val in case.tolerances.items():
+            check.positive(f"tolerances.{key}", val)
+    except AnalyticInputError as exc:
+        raise CaseError(f"Case {case.name!r}: {exc}") from None
+    return out
+
+
+def _check_fem_settings(fem: FemSettings) -> None:
+    """Types (those of :data:`FEM_KEYS`) and :data:`FEM_RANGES` of constructed FE settings."""
+    for key, default in FEM_KEYS.items():
+        val = getattr(fem, key)
+        if isinstance(default, bool) or isinstance(default, str):
+            if type(val) is not type(default):
+                raise check.refuse(f"fem.{key}", val, f"a {type(default).__name__}")
+            continue
+        need = FEM_RANGES[key][1]
+        if isinstance(default, int) and (isinstance(val, bool) or not isinstance(val, Integral)):
+            raise check.refuse(f"fem.{key}", val, f"an integer, {need}")
+        check.real(f"fem.{key}", val, need, FEM_RANGES[key][0])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -309,18 +366,8 @@ def _samples(doc: dict, Q0: float, src: str) -> tuple[tuple[float, ...], tuple[f
 def _fem(doc: dict, src: str, base: Path | None) -> FemSettings:
     tab = _check_keys(doc.get("fem", {}), FEM_KEYS, "fem", src)
     vals = {k: _typed(tab, k, d, "fem", src) for k, d in FEM_KEYS.items()}
-    checks = {
-        "level": (-3 <= vals["level"] <= 6, "-3 <= level <= 6"),
-        "order": (vals["order"] in (1, 2), "1 or 2"),
-        "penalty_factor": (vals["penalty_factor"] > 0, "> 0"),
-        "n_normal": (vals["n_normal"] >= 1, ">= 1"),
-        "n_tangential": (vals["n_tangential"] >= 1, ">= 1"),
-        "size_factor": (vals["size_factor"] >= 2, ">= 2"),
-        "window_margin": (0 <= vals["window_margin"] <= 1, "0 <= window_margin <= 1"),
-        "growth": (1 < vals["growth"] <= 2, "1 < growth <= 2"),
-    }
-    for key, (ok, allowed) in checks.items():
-        if not ok:
+    for key, (ok, allowed) in FEM_RANGES.items():
+        if not ok(vals[key]):
             raise CaseError(f"fem.{key}={vals[key]!r} is not allowed: need {allowed} ({src})")
     if vals["mesh_file"]:
         mf = Path(vals["mesh_file"])
