@@ -21,6 +21,7 @@ from scipy.optimize import brentq
 from analytic import _validate as check
 from analytic._guess import overlap_guess
 from analytic._sie import Batch, Layout, System
+from analytic._vectorise import elementwise
 from analytic.errors import ConvergenceError, InputError
 from analytic.profiles import Profile
 
@@ -81,18 +82,19 @@ class NormalSolution:
         """Sum of the zone widths."""
         return float(sum(b - a for a, b in self.zones))
 
+    @elementwise
     def pressure(self, x: np.ndarray | float) -> np.ndarray:
         """Contact pressure ``p(x) >= 0`` (vectorised; 0 outside the zones)."""
-        x = np.atleast_1d(np.asarray(x, float))
         out = np.zeros(x.shape)
         inside = _inside(x, self._system.layout.edges)
         if np.any(inside):
             out[inside] = self._system.pressure_inside(x[inside])
         return out
 
+    @elementwise
     def gap(self, x: np.ndarray | float) -> np.ndarray:
         """Deformed gap ``g(x) >= 0`` (0 in the zones; ``+inf`` where the profile is undefined)."""
-        return deformed_gap(self._system, np.atleast_1d(np.asarray(x, float)))
+        return deformed_gap(self._system, x)
 
 
 def _inside(x: np.ndarray, edges: np.ndarray) -> np.ndarray:

@@ -3,9 +3,9 @@
 The Jager-Ciavarella principle (paper Section 5, generalised) turns every stick-zone problem into
 a normal problem at a reduced load, solved at the *rotation* of stage 1 (not its moment).
 
-Conventions (DESIGN.md): ``p >= 0`` compressive; ``q`` is the shear on body 1 in the direction of
-``Q`` with ``int q dx = Q``; the relative slip ``s`` is the tangential displacement of body 1
-relative to body 2 accumulated in the current stage (positive along +x).
+Conventions (docs/conventions.md): ``p >= 0`` compressive; ``q`` is the shear on body 1 in the
+direction of ``Q`` with ``int q dx = Q``; the relative slip ``s`` is the tangential displacement
+of body 1 relative to body 2 accumulated in the current stage (positive along +x).
 
 Derivation and signs (done once, here).  With ``u[f](x) = -(A/pi) int f(s) ln|x - s| ds`` and
 ``h = h0 - theta x``, the stage-1 solution satisfies ``u[p] = delta - h`` on the contact set ``L``,
@@ -62,6 +62,7 @@ from functools import lru_cache
 import numpy as np
 
 from analytic import _validate as check
+from analytic._vectorise import elementwise
 from analytic.errors import ConvergenceError, InputError
 from analytic.normal import NormalSolution, load_curve
 from analytic.profiles import Profile
@@ -139,13 +140,14 @@ class StickSolution:
         """Signed multiple of ``mu (p - p_S)`` added in this stage: ``direction * (1 or 2)``."""
         return self.direction * (1.0 if self.stage == 2 else 2.0)
 
+    @elementwise
     def shear(self, x: np.ndarray | float) -> np.ndarray:
         """Shear ``q(x)`` on body 1 along +x (vectorised; 0 outside the contact zones).
 
         Stage 2: ``sigma mu [p(x; P) - p_S(x; P*)]``;
         stage 3: ``q0 - 2 sigma mu [p(x; P) - p_S(x; P**)]``.
         """
-        return self._pressure_and_shear(np.atleast_1d(np.asarray(x, float)))[1]
+        return self._pressure_and_shear(x)[1]
 
     def _pressure_and_shear(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``p(x)`` and ``q(x)``: the stage-1 pressure is evaluated once for the whole history."""
@@ -158,6 +160,7 @@ class StickSolution:
             s = s.previous
         return p, q
 
+    @elementwise
     def slip(self, x: np.ndarray | float) -> np.ndarray:
         """Relative slip of body 1 w.r.t. body 2 accumulated in this stage (vectorised).
 
@@ -165,7 +168,6 @@ class StickSolution:
         zero in the stick zones; 0 outside the contact zones.  ``nan`` in gross sliding, where
         the rigid slip is unbounded.
         """
-        x = np.atleast_1d(np.asarray(x, float))
         inside = _inside(x, self.normal.zones)
         out = np.zeros(x.shape)
         if self.reduced is None:

@@ -3,6 +3,8 @@
 Public API
 ----------
 Case, FemSettings, load_case(name_or_path), list_cases(), read_case(path), case_from_dict(doc)
+Case.from_profile(profile, P, A=... or E=..., nu=..., mu=..., Q0=0, M=None, **fem) -> Case;
+    case.to_dict() / case.to_toml() give it back as a case file
 run_case(case, vtk_dir=None) -> CaseResult (metrics, checks, zones, samples, passed)
 convergence(case, levels=(0, 1, 2), ...) -> ConvergenceStudy
 verify(case, result_path) -> CaseResult: an external FE result (docs/external.md) vs analytic

@@ -3,7 +3,7 @@
 This module is the project's *independent* check of the analytic singular-integral
 solver: it takes plain callables and imports neither ``analytic`` nor ``fem``.
 
-Model (conventions of DESIGN.md): two elastically similar plane-strain half-planes with
+Model (conventions of docs/conventions.md): two elastically similar plane-strain half-planes with
 composite compliance ``A = 4 (1 - nu**2) / E``, pressure ``p >= 0`` compressive, forces
 per unit width.
 

@@ -257,6 +257,7 @@ def parser() -> argparse.ArgumentParser:
     from compare.sweep import add_sweep_parser  # `sweep` and `report --sweep DIR`
 
     add_sweep_parser(sub)
+    p.description = f"Command line multicontact: {', '.join(sub.choices)}."
     return p
 
 
