@@ -10,15 +10,19 @@ as such; a perturbed copy must fail the check that measures the perturbation.
 
 from __future__ import annotations
 
+import importlib.util
+import json
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import analytic
 from analytic import profiles
 from analytic.profiles import Profile
 from compare import bem
-from compare.audit import cases, checks
+from compare.audit import cases, checks, run
 from compare.audit import quadrature as qd
 
 A, R, P = 1.0, 1.0, 0.3
@@ -153,3 +157,40 @@ def test_zones_below_the_bem_resolution_are_merged_or_left_out() -> None:
     zones = [(0.0, 1.0), (1.001, 1.5), (3.0, 3.002)]
     rows = checks.resolved_zones(zones, [1.0, 2.0, 0.1], dx=0.01)
     assert rows.tolist() == [[0.0, 1.5, 3.0]]
+
+
+def _raise(err: Exception):
+    def solve(*args, **kwargs):
+        raise err
+    return solve
+
+
+@pytest.mark.parametrize(("err", "cls"), [
+    (analytic.ConvergenceError("continuation stalled"), "convergence_error"),
+    (analytic.InputError("P=1 is not allowed"), "input_error"),
+])
+def test_a_solver_error_is_classified(monkeypatch, err: Exception, cls: str) -> None:
+    """Seed 2 (one cylinder) has a solution: the BEM finds it, so a raise is a disagreement."""
+    monkeypatch.setattr(analytic, "solve_normal", _raise(err))
+    result = run.audit_case(cases.make_case(2))
+    assert result.classes == (cls,) and result.disagrees
+
+
+def test_a_slow_case_times_out() -> None:
+    result = run.audit_seed(2, time_limit=1e-3)
+    assert result.classes == ("timeout",) and result.disagrees
+
+
+def test_the_script_writes_the_table(tmp_path: Path) -> None:
+    script = Path(__file__).parents[2] / "benchmarks" / "audit.py"
+    spec = importlib.util.spec_from_file_location("audit_script", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.main(["--n", "2", "--seed", "2", "--out", str(tmp_path)]) == 0
+    doc = json.loads((tmp_path / "audit.json").read_text())
+    assert doc["summary"]["cases"] == 2 and doc["summary"]["disagreements"] == 0
+    assert [c["seed"] for c in doc["cases"]] == [2, 3]
+    assert "| 2 | 0 |" in (tmp_path / "audit.md").read_text()
+    assert not list(tmp_path.glob(".audit*"))  # no temporary files left
+    with pytest.raises(SystemExit):
+        module.main(["--n", "0"])
