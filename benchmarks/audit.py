@@ -20,6 +20,12 @@ from pathlib import Path  # noqa: E402
 from compare.audit import checks, run  # noqa: E402
 
 
+def _progress(result: run.CaseResult) -> None:
+    verdict = ", ".join(result.classes) or "ok"
+    print(f"seed {result.seed}: {verdict} (solve {result.solve_time:.2f} s)", file=sys.stderr,
+          flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=500, help="number of cases (default 500)")
@@ -33,7 +39,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.n < 1 or args.jobs < 1 or args.seed < 0:
         parser.error(f"need --n >= 1, --jobs >= 1, --seed >= 0 (got {args.n}, {args.jobs}, "
                      f"{args.seed})")
-    results = run.run_audit(list(range(args.seed, args.seed + args.n)), args.jobs, args.bem_n)
+    results = run.run_audit(list(range(args.seed, args.seed + args.n)), args.jobs, args.bem_n,
+                            report=_progress)
     head = run.write_table(results, args.out)
     print(run.markdown(results, head).split("\n## Cases")[0])
     print(f"written {args.out / 'audit.json'} and {args.out / 'audit.md'}")

@@ -22,6 +22,7 @@ import signal
 import tempfile
 import time
 from collections import Counter
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -177,10 +178,17 @@ def _limit_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (WORKER_MEMORY, WORKER_MEMORY))
 
 
-def run_audit(seeds: list[int], jobs: int = 1, n_bem: int = checks.BEM_N) -> list[CaseResult]:
-    """Audit every seed in ``jobs`` worker processes; results in seed order."""
+def run_audit(seeds: list[int], jobs: int = 1, n_bem: int = checks.BEM_N,
+              report: Callable[[CaseResult], None] | None = None) -> list[CaseResult]:
+    """Audit every seed in ``jobs`` worker processes; results in seed order, each passed to
+    ``report`` as it arrives."""
+    out = []
     with ProcessPoolExecutor(max_workers=jobs, initializer=_limit_memory) as pool:
-        return list(pool.map(audit_seed, seeds, [n_bem] * len(seeds)))
+        for result in pool.map(audit_seed, seeds, [n_bem] * len(seeds)):
+            if report is not None:
+                report(result)
+            out.append(result)
+    return out
 
 
 def summary(results: list[CaseResult]) -> dict:
