@@ -22,6 +22,7 @@ from pathlib import Path
 import pytest
 
 from compare.audit import run
+from compare.audit.cases import AuditCase
 
 FAST_SAMPLE = 30
 """Seeds 0..29 run in the default suite (~20 s)."""
@@ -48,6 +49,37 @@ def _assert_agrees(result: run.CaseResult) -> None:
 @pytest.mark.parametrize("seed", _seed_params(range(FAST_SAMPLE)))
 def test_audit_fast_sample(seed: int) -> None:
     _assert_agrees(run.audit_seed(seed))
+
+
+B0, RHO = 0.44558171357291565, 0.12406813981921715
+ISSUE_CASES = [
+    AuditCase(-1, "punch", ("flat_punch", {"left": -0.2013895002861746,
+                                           "right": 0.2013895002861746,
+                                           "corner_radius": 0.10164068346043335,
+                                           "corner_shape": "parabolic"}),
+              1e-3, 1.0, None, "vertical", None, None, None, (-0.2, 0.2)),
+    AuditCase(-2, "punch", ("union", {"members": [
+        ("flat_punch", {"left": -1.0, "right": 1.0}),
+        ("cylinder", {"R": 1.0, "center": 4.0, "lift": 0.5})]}),
+        1.0, 1.0, 0.45, "moment", None, None, None, (-1.0, 1.0)),
+    AuditCase(-3, "punch", ("union", {"members": [
+        ("flat_punch", {"left": -B0, "right": B0, "corner_radius": RHO}),
+        ("cylinder", {"R": 0.497751415090719, "center": 1.3112607075014848,
+                      "lift": 2.8910158260701618e-05}),
+        ("cylinder", {"R": 2.09162665941828, "center": 2.9514705388119507})]}),
+        2.538619387584285e-4, 1.0, None, "vertical", None, None, None, (-B0, B0)),
+]
+"""Issue 13's three wrong answers as audit cases: the audit flags each on the solver of
+0616e17 (load_quadrature; rigid_approach and gap_consistency; every quadrature check and
+bem_loads)."""
+
+
+@pytest.mark.parametrize("case", [
+    pytest.param(c, id=f"wrong_answer_{-c.seed}",
+                 marks=pytest.mark.xfail(strict=True, reason="issue 13 wrong answer, open"))
+    for c in ISSUE_CASES])
+def test_audit_flags_the_issue_wrong_answers(case: AuditCase) -> None:
+    _assert_agrees(run.audit_case(case))
 
 
 @pytest.mark.slow
