@@ -22,7 +22,7 @@ from compare.audit import checks, run  # noqa: E402
 
 def _progress(result: run.CaseResult) -> None:
     verdict = ", ".join(result.classes) or "ok"
-    print(f"seed {result.seed}: {verdict} (solve {result.solve_time:.2f} s)", file=sys.stderr,
+    print(f"seed {result.seed}: {verdict} (solve {result.solve_cpu:.2f} s CPU)", file=sys.stderr,
           flush=True)
 
 

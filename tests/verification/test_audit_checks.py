@@ -190,7 +190,7 @@ def test_the_script_writes_the_table(tmp_path: Path) -> None:
     doc = json.loads((tmp_path / "audit.json").read_text())
     assert doc["summary"]["cases"] == 2 and doc["summary"]["disagreements"] == 0
     assert [c["seed"] for c in doc["cases"]] == [2, 3]
-    assert "| 2 | 0 |" in (tmp_path / "audit.md").read_text()
+    assert "| 2 | 0 | " in (tmp_path / "audit.md").read_text()
     assert not list(tmp_path.glob(".audit*"))  # no temporary files left
     with pytest.raises(SystemExit):
         module.main(["--n", "0"])
