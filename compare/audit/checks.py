@@ -111,7 +111,7 @@ class _Quadratures:
     min_p: float
     x_out: np.ndarray
     gap: np.ndarray
-    gap_err: float
+    gap_err: np.ndarray
 
 
 def quadrature_findings(sol: NormalSolution) -> list[Finding]:
@@ -134,10 +134,11 @@ def quadrature_findings(sol: NormalSolution) -> list[Finding]:
         _finding("pressure_negative", -q.min_p / (P / sol.extent), PRESSURE_TOL, 0.0,
                  f"min p = {q.min_p:.3e}"),
         _finding("gap_negative", -float(np.min(q.gap, initial=0.0)) / AP, GAP_TOL,
-                 q.gap_err / AP, _at_min(q.x_out, q.gap)),
+                 np.max(q.gap_err, initial=0.0) / AP, _at_min(q.x_out, q.gap)),
         _finding("gap_consistency",
                  float(np.max(np.abs(returned_gap - q.gap) / gap_scale, initial=0.0)),
-                 GAP_MATCH_TOL, q.gap_err / AP, _at_max_diff(q.x_out, returned_gap, q.gap)),
+                 GAP_MATCH_TOL, np.max(q.gap_err / gap_scale, initial=0.0),
+                 _at_max_diff(q.x_out, returned_gap, q.gap)),
     ]
 
 
@@ -167,18 +168,16 @@ def _quadratures(sol: NormalSolution) -> _Quadratures:
     runs = [_quadrature_run(sol, step) for step in (qd.STEP, 0.5 * qd.STEP)]
     (l0, m0, d0, _, g0), (l1, m1, d1, min_p, g1) = runs
     x_out = outside_points(sol)
-    delta = d1
+    gap = _recomputed_gap(sol, g1, d1, x_out)
     return _Quadratures(
         loads=l1, loads_err=np.abs(l1 - l0), moment=m1, moment_err=abs(m1 - m0),
-        delta=delta, delta_err=float(np.max(np.abs(d1 - d0))), min_p=min_p, x_out=x_out,
-        gap=_recomputed_gap(sol, g1, delta, x_out),
-        gap_err=float(np.max(np.abs(_recomputed_gap(sol, g0, d0, x_out)
-                                    - _recomputed_gap(sol, g1, delta, x_out)), initial=0.0)),
+        delta=d1, delta_err=float(np.max(np.abs(d1 - d0))), min_p=min_p, x_out=x_out,
+        gap=gap, gap_err=np.abs(_recomputed_gap(sol, g0, d0, x_out) - gap),
     )
 
 
 def _quadrature_run(sol: NormalSolution, step: float):
-    """Zone loads, moment, delta at the inside points, min p and the potential callable."""
+    """Zone loads, moment, delta at the inside points, min p, and (rule, p) for the potential."""
     cuts = qd.profile_cuts(sol.profile)
     rule = qd.zones_rule(sol.zones, cuts, step)
     p = sol.pressure(rule.x)
