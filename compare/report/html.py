@@ -97,8 +97,8 @@ def case_head(sec) -> str:
             f"{res.case.fem.level}, h = {fe.h_min:.3g} &middot; "
             f'<span class="{"pass" if res.passed else "FAIL"}">'
             f"{html.escape(verdict_text(res))}</span> &middot; run time "
-            f"{sum(t.values()):.1f} s (analytic {t['analytic']:.1f}, FE {t['fem']:.1f}, "
-            f"compare {t['compare']:.1f}) + report {sec.seconds:.1f} s</p>")
+            f"{sum(t.values()):.1f} s ({', '.join(f'{k} {v:.1f}' for k, v in t.items())}) "
+            f"+ report {sec.seconds:.1f} s</p>")
 
 
 def index_body(sections, summary: dict) -> str:

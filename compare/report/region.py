@@ -94,8 +94,11 @@ def _status_panel(ax, res: CaseResult, step) -> None:
               loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=3, fontsize=7, frameon=False)
 
 
-def region_figure(res: CaseResult) -> bytes:
-    """PNG of :func:`region_axes`."""
+def region_figure(res: CaseResult) -> bytes | None:
+    """PNG of :func:`region_axes`; None for a result without body fields (an external code's
+    interface-only result), which has no stress field to draw."""
+    if getattr(res.fem, "fields", None) is None:
+        return None
     return png(region_axes(res))
 
 
