@@ -67,8 +67,12 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[_
     theta0 = _initial_rotation(profile, xe)
     scale = abs(theta0) + A * P / profile.scale + 1e-12
     (t_lo, t_hi), _ = _bracket(profile, P, A, M, theta0, 0.25 * scale)
-    theta = brentq(lambda t: _moment_or_nan(profile, P, A, t) - M, t_lo, t_hi,
-                   xtol=THETA_XTOL * max(scale, 1.0), rtol=1e-14)
+    try:
+        theta = brentq(lambda t: _moment_or_nan(profile, P, A, t) - M, t_lo, t_hi,
+                       xtol=THETA_XTOL * max(scale, 1.0), rtol=1e-14)
+    except ValueError as exc:  # a re-solve at a bracket end gave M - M(theta) the other sign
+        raise ConvergenceError(f"moment search lost its bracket: {exc}",
+                               {"theta_bracket": (t_lo, t_hi)}) from exc
     st, sys_ = _solve_fixed(profile, P, A, theta)
     try:
         return _converge(st, profile, A, M)

@@ -35,6 +35,7 @@ FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
 ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
 MAX_TOPOLOGY_CHANGES = 12
 START_FRACTION = 2e-3       # first-touch zone size relative to the local feature size
+FIRST_TOUCH_TRIES = 12      # ... divided by 10 per try while its load exceeds the target
 FIRST_LOAD_FRACTION = 1e-3  # first-touch load of a zone pinned at both ends (x target):
                             # the continuation then meets the next zones at small overlap
 
@@ -407,7 +408,7 @@ def _feature_size(profile: Profile, x: float, touches: list) -> float:
 def _initial_state(profile: Profile, A: float, theta: float, P_target: float) -> _State:
     touches = _touch_set(profile, theta)
     frac = START_FRACTION
-    for _ in range(8):
+    for _ in range(FIRST_TOUCH_TRIES):
         edges, pinned = [], []
         for lo, hi, _v in touches:
             size = frac * _feature_size(profile, 0.5 * (lo + hi), touches)
