@@ -33,9 +33,11 @@ FLOOR_TOL = 1e-10          # accepted when rounding stalls Newton (zones ~1e-6 o
 ULP_FLOOR = 64.0            # ... or below the residual change of this many ulps of the edges
 REFRESH_RATIO = 0.1         # a reused Jacobian gaining less than this per step is refreshed
 FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
+FD_ULPS = 64.0              # ... and the smallest step of an edge in units in the last place
 ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
 MAX_TOPOLOGY_CHANGES = 12
 START_FRACTION = 2e-3       # first-touch zone size relative to the local feature size
+FIRST_TOUCH_TRIES = 12      # ... divided by 10 per try while its load exceeds the target
 FIRST_LOAD_FRACTION = 1e-3  # first-touch load of a zone pinned at both ends (x target):
                             # the continuation then meets the next zones at small overlap
 
@@ -275,35 +277,42 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
         if not polish and nt > REFRESH_RATIO * norm and not fresh:
             J = None  # stale Jacobian: refresh and retry from the same point
             continue
-        if not polish and nt > 0.5 * norm and norm < floor:
+        if not polish and nt > 0.5 * norm and np.all(np.abs(F) < floor):
             break  # rounding floor reached with a fresh Jacobian: accept
-        if nt >= norm and nt > floor:
+        if nt >= norm and not np.all(np.abs(Ft) < floor):
             raise _NewtonFailed("no descent", {"residual": norm, "iteration": it})
         step = zt - z
         if step @ step > 0:  # Broyden's rank-one update keeps the reused Jacobian current
             J = J + np.outer(Ft - F - J @ step, step) / (step @ step)
         st, z, F, fresh = trial, zt, Ft, False
-        if np.max(np.abs(dz)) < 1e-15 and nt < floor:
+        if np.max(np.abs(dz)) < 1e-15 and np.all(np.abs(Ft) < floor):
             norm = nt
             break
         norm = nt
     else:
-        if norm >= floor:
+        if not np.all(np.abs(F) < floor):
             raise _NewtonFailed("too many iterations", {"residual": norm,
                                                         "iteration": NEWTON_MAXIT})
     st.jac = J
     return st, F
 
 
-def _rounding_floor(J: np.ndarray, st: _State, mode: _Mode) -> float:
-    """Residual level below which Newton may stop: FLOOR_TOL, or the change of the residuals
-    when every free edge moves by ULP_FLOOR units in the last place of its absolute position,
-    if larger.  Edges are stored as x, so an edge a distance d past a kink (a rounded corner's
-    start at a small load, d ~ P^(2/3)) carries a relative load error ~ eps |x| / d."""
+def _rounding_floor(J: np.ndarray, st: _State, mode: _Mode) -> np.ndarray:
+    """Residual level of each equation below which Newton may stop: FLOOR_TOL, or the change of
+    that residual when every free edge moves by ULP_FLOOR units in the last place of its
+    absolute position, if larger.  Edges are stored as x, so an edge a distance d past a kink
+    (a rounded corner's start at a small load, d ~ P^(2/3)) carries a relative load error
+    ~ eps |x| / d."""
     free = _free_edges(st.layout, mode)
     ulp = np.zeros(J.shape[1])
     ulp[: free.size] = np.spacing(np.abs(st.layout.edges[free])) / st.ell
-    return max(FLOOR_TOL, ULP_FLOOR * float(np.max(np.abs(J) @ ulp, initial=0.0)))
+    floor = np.maximum(FLOOR_TOL, ULP_FLOOR * (np.abs(J) @ ulp))
+    # not the interconnections: scaled by A P + |h'| span, not by the gaps' own size A P, they
+    # would accept a wrong load split between narrow zones far apart (double wedge, P = 1e-8)
+    lay = st.layout
+    first = max(lay.e - lay.n, 0) + int(mode.P is not None and lay.e >= lay.n)
+    floor[first: first + lay.n - 1] = FLOOR_TOL
+    return floor
 
 
 def _polish_step(J: np.ndarray | None, F: np.ndarray) -> np.ndarray | None:
@@ -327,7 +336,9 @@ def _fd_steps(z: np.ndarray, st: _State, mode: _Mode, profile: Profile) -> np.nd
     free = _free_edges(st.layout, mode)
     edges = st.layout.edges[free]
     smooth = np.minimum(st.layout.edge_widths()[free], profile.feature_distance(edges))
-    h[: free.size] = FD_STEP * smooth / st.ell
+    # but by at least FD_ULPS units in the last place of x (the edges are stored as x): a zone
+    # 4e-9 wide at x = 1 (a wedge apex at a small load) would step by 2 ulps
+    h[: free.size] = np.maximum(FD_STEP * smooth, FD_ULPS * np.spacing(np.abs(edges))) / st.ell
     return h
 
 
@@ -409,7 +420,7 @@ def _feature_size(profile: Profile, x: float, touches: list) -> float:
 def _initial_state(profile: Profile, A: float, theta: float, P_target: float) -> _State:
     touches = _touch_set(profile, theta)
     frac = START_FRACTION
-    for _ in range(8):
+    for _ in range(FIRST_TOUCH_TRIES):
         edges, pinned = [], []
         for lo, hi, _v in touches:
             size = frac * _feature_size(profile, 0.5 * (lo + hi), touches)
