@@ -1,0 +1,252 @@
+"""Independent a-posteriori check of a normal solution (issue 13).
+
+It uses only what a solution returns - its zones, singular flags, zone loads, P, M, theta,
+``pressure(x)`` - and the profile ``h0``; none of the solved equations (consistency,
+interconnection, the contour loads or the gap integrals).  From the pressure alone:
+
+- ``int p dx`` over every zone equals the reported zone load, their sum equals P, and
+  ``int x p dx`` equals M;
+- the rigid approach ``delta(x) = h0(x) - theta x + u(x)`` with the relative normal
+  displacement ``u(x) = -(A/pi) int p(s) ln|x - s| ds`` is the same at points inside every zone
+  (contact condition and rigid interconnection, paper Eq. 17, together);
+- ``p >= 0`` at every quadrature node, and the deformed gap ``g = h0 - theta x - delta + u >= 0``
+  outside the zones on a grid graded towards every edge and kink;
+- no zone holds a point where h0 is infinite or a corner where h0 steps, and a singular edge
+  sits at a corner or ridge of the profile.
+
+One quadrature serves every integral: each zone is cut at its edges, at the profile's kinks and
+at the approach targets, every piece is halved, and on each half ``t = L u^2`` (distance t from
+its end): the edge factors ``d^(1/2)`` and ``d^(-1/2)`` of p become smooth in u and the log
+singularities (p at a wedge apex, the kernel at a target) become ``u ln u``.  The Gauss-Legendre
+panels in u are graded geometrically (ratio ``GRADING``) towards the end, down to the scale of
+the nearest other feature.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from analytic.errors import ConvergenceError
+from analytic.profiles import Profile
+
+LOAD_TOL = 1e-9
+"""|int p - reported| per zone and in total, relative to P (the quadrature reaches ~1e-12)."""
+MOMENT_TOL = 1e-9
+"""|int x p - M| relative to P times the span of the zones (same quadrature)."""
+APPROACH_TOL = 1e-7
+"""Spread of delta over all targets, relative to A P (log-kernel quadrature ~1e-10; the wrong
+answers of issue 13 spread by 1e-3 .. 1e-1)."""
+PRESSURE_TOL = 1e-9
+"""min p relative to the mean pressure P / (sum of zone widths) (rounding near an edge)."""
+GAP_TOL = 1e-7
+"""min deformed gap outside the zones relative to A P (same accuracy as delta)."""
+GRADING = 4.0
+"""Ratio of neighbouring panels of the graded rule."""
+PANEL_NODES = 8
+"""Gauss nodes per panel."""
+LOG_DEPTH = 4
+"""Graded u-panels at least towards a kink or target (innermost u < 4^-4, t < 4e-6 of the half)."""
+TARGETS = (0.25, 0.5, 0.75)
+"""Approach targets per piece between edges and kinks (fractions of the piece)."""
+GAP_POINTS = (1e-3, 1e-2, 0.1, 0.25, 0.5, 0.75, 0.9, 0.99, 0.999)
+"""Gap samples across every gap (fractions), and beyond the outer edges (times the span)."""
+
+
+@dataclass(frozen=True)
+class Rule:
+    """Nodes ``x`` and weights ``w`` with ``int_zone f dx ~ sum w f(x)``; ``zone`` per node."""
+
+    x: np.ndarray
+    w: np.ndarray
+    zone: np.ndarray
+
+
+@lru_cache(maxsize=8)
+def _legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
+    t, w = np.polynomial.legendre.leggauss(n)
+    return 0.5 * (t + 1.0), 0.5 * w
+
+
+def graded_half(end: float, length: float, direction: float, finest: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights on ``[end, end + direction length]`` after ``t = length u^2``: an edge
+    factor ``t^(+-1/2)`` times ``dt = 2 length u du`` is smooth in u, a log singularity becomes
+    ``u ln u``.  Gauss-Legendre panels in u shrink geometrically towards ``u = 0`` until the
+    innermost is at most ``sqrt(finest / length)`` (``finest`` in x)."""
+    u_min = math.sqrt(max(finest, 1e-300) / length)
+    depth = max(1, math.ceil(-math.log(min(u_min, 1.0)) / math.log(GRADING)))
+    bounds = np.append(GRADING ** -np.arange(depth + 1.0), 0.0)  # 1, 1/4, ..., 0
+    u, w = _legendre(PANEL_NODES)
+    lo, hi = bounds[1:], bounds[:-1]
+    uu = (lo[:, None] + (hi - lo)[:, None] * u).ravel()
+    wu = ((hi - lo)[:, None] * w).ravel()
+    return end + direction * length * uu * uu, 2.0 * length * uu * wu
+
+
+def zone_rule(zones: list[tuple[float, float]], cuts: list[list[float]], span: float) -> Rule:
+    """The graded rule on every zone cut at ``cuts[k]`` (kinks and targets inside zone k)."""
+    xs, ws, zs = [], [], []
+    for k, (a, b) in enumerate(zones):
+        pts = [a, *cuts[k], b]
+        outside = _outside_clearance(zones, k, span)
+        for i in range(len(pts) - 1):
+            half = 0.5 * (pts[i + 1] - pts[i])
+            for j, direction in ((i, 1.0), (i + 1, -1.0)):
+                x, w = graded_half(pts[j], half, direction,
+                                   _finest(pts, j, 0 < j < len(pts) - 1, half, outside))
+                xs.append(x)
+                ws.append(w)
+                zs.append(np.full(x.size, k))
+    return Rule(np.concatenate(xs), np.concatenate(ws), np.concatenate(zs))
+
+
+def _outside_clearance(zones: list[tuple[float, float]], k: int, span: float) -> float:
+    """Distance from zone k to the nearest other zone (the span for a single zone)."""
+    d = [zones[k][0] - zones[k - 1][1]] if k > 0 else []
+    d += [zones[k + 1][0] - zones[k][1]] if k + 1 < len(zones) else []
+    return min(d) if d else span
+
+
+def _finest(pts: list[float], j: int, inner: bool, half: float, outside: float) -> float:
+    """Innermost panel towards ``pts[j]`` (x scale): a quarter of the piece beyond it (or of the
+    distance to the next zone at an edge), and at least LOG_DEPTH levels (in u) at an ``inner``
+    point (kink or target)."""
+    beyond = [pts[j] - pts[j - 1]] if j > 0 else [outside]
+    beyond += [pts[j + 1] - pts[j]] if j + 1 < len(pts) else [outside]
+    finest = 0.25 * min(beyond + [half])
+    if inner:
+        finest = min(finest, half * GRADING ** (-2 * LOG_DEPTH))
+    return max(finest, 1e-300)
+
+
+def approach_targets(zones: list[tuple[float, float]], kinks: list[list[float]]
+                     ) -> list[list[float]]:
+    """Targets at TARGETS of every piece of every zone between its edges and kinks."""
+    out = []
+    for (a, b), ks in zip(zones, kinks, strict=True):
+        pts = [a, *ks, b]
+        out.append([lo + f * (hi - lo) for lo, hi in zip(pts[:-1], pts[1:], strict=True)
+                    for f in TARGETS])
+    return out
+
+
+def log_potential(rule: Rule, p: np.ndarray, x: np.ndarray, A: float) -> np.ndarray:
+    """``u(x) = -(A/pi) int p(s) ln|x - s| ds`` by the rule.  A node that rounds onto its
+    target (zones a few ulps wide) has a negligible weight; its distance is floored at an ulp."""
+    ulp = 4 * np.finfo(float).eps * np.maximum(np.abs(x), np.max(np.abs(rule.x)))
+    kernel = np.log(np.maximum(np.abs(x[:, None] - rule.x[None, :]), ulp[:, None]))
+    return -(A / np.pi) * (kernel @ (rule.w * p))
+
+
+def gap_points(zones: list[tuple[float, float]], profile: Profile, span: float) -> np.ndarray:
+    """Samples outside the zones: across every gap, beyond the outer edges (geometric in the
+    span), and either side of every kink and corner that lies outside the zones."""
+    f = np.asarray(GAP_POINTS)
+    e = np.ravel(zones)
+    pts = [e[1:-1:2, None] + (e[2::2] - e[1:-1:2])[:, None] * f[None, :]]
+    pts += [e[-1] + span * f, e[0] - span * f]
+    marks = np.asarray([*profile.kinks, *profile.pin_points], float)
+    d = 1e-7 * max(profile.scale, 1e-300)
+    pts += [marks - d, marks + d]
+    x = np.concatenate([np.ravel(q) for q in pts])
+    inside = np.any((x[:, None] >= e[0::2]) & (x[:, None] <= e[1::2]), axis=1)
+    return x[~inside & np.isfinite(profile.h0(x))]
+
+
+def _inner_marks(profile: Profile, zones: list[tuple[float, float]]) -> list[list[float]]:
+    return [[q for q in profile.kinks if a < q < b] for a, b in zones]
+
+
+@dataclass(frozen=True)
+class Figures:
+    """The check's figures (all relative; see the tolerances above)."""
+
+    load: float
+    moment: float
+    approach: float
+    min_pressure: float
+    min_gap: float
+    nodes: int
+
+    def as_residuals(self) -> dict[str, float]:
+        return {"check_load": self.load, "check_moment": self.moment,
+                "check_approach": self.approach, "check_min_pressure": self.min_pressure,
+                "check_min_gap": self.min_gap}
+
+
+def check_normal(profile: Profile, zones: list[tuple[float, float]],
+                 singular: list[tuple[bool, bool]], zone_loads: list[float], P: float,
+                 M: float | None, theta: float, A: float,
+                 pressure: Callable[[np.ndarray], np.ndarray]) -> Figures:
+    """Check a normal solution from its pressure and the profile only; raise
+    :class:`ConvergenceError` with the figures when any exceeds its tolerance.  ``M`` None:
+    the moment is not checked."""
+    _check_topology(profile, zones, singular)
+    span = max(zones[-1][1] - zones[0][0], 1e-300)
+    kinks = _inner_marks(profile, zones)
+    targets = approach_targets(zones, kinks)
+    cuts = [sorted([*ks, *ts]) for ks, ts in zip(kinks, targets, strict=True)]
+    rule = zone_rule(zones, cuts, span)
+    p = pressure(rule.x)
+    figs = _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, targets, span)
+    bad = _failures(figs)
+    if bad:
+        raise ConvergenceError(f"the self-check of the solution failed: {', '.join(bad)}",
+                               {**figs.as_residuals(), "zones": zones})
+    return figs
+
+
+def _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, targets, span) -> Figures:
+    per_zone = np.bincount(rule.zone, rule.w * p, minlength=len(zones))
+    load = max(np.max(np.abs(per_zone - np.asarray(zone_loads))), abs(per_zone.sum() - P)) / P
+    moment = 0.0 if M is None else abs(np.sum(rule.w * p * rule.x) - M) / (P * span)
+    xt = np.concatenate([np.asarray(t, float) for t in targets])
+    delta = profile.h0(xt) - theta * xt + log_potential(rule, p, xt, A)
+    ref = 0.5 * (delta.max() + delta.min())
+    xo = gap_points(zones, profile, span)
+    g = profile.h0(xo) - theta * xo - ref + log_potential(rule, p, xo, A)
+    mean_p = P / sum(b - a for a, b in zones)
+    return Figures(float(load), float(moment), float(np.ptp(delta) / (A * P)),
+                   float(min(np.min(p) / mean_p, 0.0)),
+                   float(min(np.min(g, initial=0.0) / (A * P), 0.0)), int(rule.x.size))
+
+
+def _failures(f: Figures) -> list[str]:
+    out = []
+    for name, value, tol in (("load", f.load, LOAD_TOL), ("moment", f.moment, MOMENT_TOL),
+                             ("approach", f.approach, APPROACH_TOL),
+                             ("min_pressure", -f.min_pressure, PRESSURE_TOL),
+                             ("min_gap", -f.min_gap, GAP_TOL)):
+        if not value <= tol:
+            out.append(f"{name} {value:.3g} > {tol:g}")
+    return out
+
+
+def _check_topology(profile: Profile, zones: list[tuple[float, float]],
+                    singular: list[tuple[bool, bool]]) -> None:
+    """No zone over infinite h0 or a step of h0; singular edges only at corners or ridges."""
+    pins = set(profile.pin_points)
+    for (a, b), sing in zip(zones, singular, strict=True):
+        if not np.all(np.isfinite(profile.h0(np.linspace(a, b, 65)))):
+            raise ConvergenceError("the self-check failed: a zone lies where h0 is infinite",
+                                   {"zone": (a, b)})
+        steps = [q for q in profile.corners if a < q < b and _steps(profile, q)]
+        if steps:
+            raise ConvergenceError("the self-check failed: a zone spans a sharp corner "
+                                   "(contact beyond it)", {"zone": (a, b), "corners": steps})
+        for x, s in zip((a, b), sing, strict=True):
+            if s and x not in pins:
+                raise ConvergenceError("the self-check failed: a singular edge is not at a "
+                                       "corner or ridge", {"edge": x})
+
+
+def _steps(profile: Profile, q: float) -> bool:
+    """Whether h0 jumps at the corner q."""
+    d = 1e-9 * max(profile.scale, abs(q))
+    lo, hi = profile.h0(np.array([q - d, q + d]))
+    return not (np.isfinite(lo) and np.isfinite(hi)) or abs(hi - lo) > 1e-6 * profile.scale
