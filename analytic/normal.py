@@ -22,6 +22,7 @@ from analytic._guess import overlap_guess
 from analytic._sie import Batch, Layout, System
 from analytic.errors import ConvergenceError, InputError
 from analytic.profiles import Profile
+from analytic.selfcheck import check_normal, h0_steps
 
 NEWTON_TOL = 1e-13          # scaled residual; edges then agree to ~1e-12 relative
 NEWTON_MAXIT = 40
@@ -55,7 +56,9 @@ class NormalSolution:
     mode : ``"vertical"`` (rotation locked, M output) or ``"moment"`` (M given, theta output).
     A : composite compliance ``4 (1 - nu^2)/E``.
     residuals : the scaled residuals of the equations solved and the self-checks (equilibrium
-        from the integrated pressure, min pressure, min gap).
+        from the integrated pressure, min pressure, min gap), and the figures of the independent
+        check of :mod:`analytic.selfcheck` (``selfcheck_*``: zone loads, moment, spread of the
+        rigid approach, min p, min gap, from ``pressure(x)`` and h0 only).
     """
 
     zones: list[tuple[float, float]]
@@ -211,7 +214,9 @@ def _rows(batch: Batch, st: _State, mode: _Mode) -> np.ndarray:
 
 def _feasible(st: _State, profile: Profile) -> bool:
     """Edges finite, strictly increasing, inside the support, free edges where h0 is finite,
-    and no zone spanning a ridge (scalar checks: this runs at every trial point)."""
+    and no zone spanning a ridge or a corner where h0 steps (a sharp punch beside a cylinder:
+    a released corner edge crossed onto the cylinder's flank, 13 higher; scalar checks: this
+    runs at every trial point)."""
     e = st.layout.edges.tolist()
     tol = 1e-14 * st.ell
     if not all(math.isfinite(v) for v in e) or \
@@ -224,7 +229,9 @@ def _feasible(st: _State, profile: Profile) -> bool:
         inner = profile.h0(st.layout.edges[~st.layout.pinned])
         if not np.all(np.isfinite(inner)):
             return False
-    return not any(a < q < b for q in profile.ridges for a, b in zip(e[::2], e[1::2], strict=True))
+    inside = [q for q in (*profile.ridges, *profile.corners)
+              if any(a < q < b for a, b in zip(e[::2], e[1::2], strict=True))]
+    return not any(q in profile.ridges or h0_steps(profile, q) for q in inside)
 
 
 class _NewtonFailed(Exception):
@@ -938,7 +945,7 @@ def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
     from analytic._moment import solve_with_moment
 
     st, sys_ = solve_with_moment(profile, P, A, float(M))
-    return _finish(st, sys_, profile, A, "moment")
+    return _finish(st, sys_, profile, A, "moment", float(M))
 
 
 def _solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[_State, System]:
@@ -999,7 +1006,10 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     return out  # type: ignore[return-value]
 
 
-def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> NormalSolution:
+def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str,
+            M_target: float | None = None) -> NormalSolution:
+    """The solution, checked by :func:`analytic.selfcheck.check_normal` (its figures join the
+    residuals; ``M_target``: the applied moment, checked against ``int x p dx``)."""
     zl = zone_loads(sys_)
     P_calc, M_calc = sys_.load_and_moment()
     F = st.F if st.F is not None else _residual(st, _Mode(st.P, None), profile, A)[0]
@@ -1013,8 +1023,12 @@ def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> 
         **checks,
     }
     singular = [tuple(bool(v) for v in pr) for pr in st.layout.pinned.reshape(-1, 2)]
-    return NormalSolution(st.layout.zones(), singular, zl, st.P, M_calc, st.theta, mode, A,
-                          res, profile, sys_)
+    sol = NormalSolution(st.layout.zones(), singular, zl, st.P, M_calc, st.theta, mode, A,
+                         res, profile, sys_)
+    figs = check_normal(profile, sol.zones, singular, zl, st.P, M_target, st.theta, A,
+                        sol.pressure)
+    res.update(figs.as_residuals())
+    return sol
 
 
 # ---------------------------------------------------------------------------------------------

@@ -47,12 +47,13 @@ GAP_TOL = 1e-7
 """min deformed gap outside the zones relative to A P (same accuracy as delta)."""
 GRADING = 4.0
 """Ratio of neighbouring panels of the graded rule."""
-PANEL_NODES = 8
+PANEL_NODES = 10
 """Gauss nodes per panel."""
-LOG_DEPTH = 4
-"""Graded u-panels at least towards a kink or target (innermost u < 4^-4, t < 4e-6 of the half)."""
-TARGETS = (0.25, 0.5, 0.75)
-"""Approach targets per piece between edges and kinks (fractions of the piece)."""
+LOG_DEPTH = 5
+"""Graded u-panels at least towards a kink or target (innermost u < 4^-5, t < 1e-6 of the half)."""
+FINEST = 1e-11
+"""Innermost panel at least this times |x|: its nodes stay ~1e-12 |x| from the point (p itself
+is not computable closer to a kink, where x rounds)."""
 GAP_POINTS = (1e-3, 1e-2, 0.1, 0.25, 0.5, 0.75, 0.9, 0.99, 0.999)
 """Gap samples across every gap (fractions), and beyond the outer edges (times the span)."""
 
@@ -72,6 +73,21 @@ def _legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (t + 1.0), 0.5 * w
 
 
+def _graded_reference(depth: int) -> tuple[np.ndarray, np.ndarray]:
+    return _graded_reference_n(depth, PANEL_NODES)
+
+
+@lru_cache(maxsize=64)
+def _graded_reference_n(depth: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes u in (0, 1) and weights of ``int_0^1 2 u f(u^2) du`` on Gauss-Legendre panels
+    ``[GRADING^-(m+1), GRADING^-m]``, m < depth, and ``[0, GRADING^-depth]``."""
+    bounds = np.append(GRADING ** -np.arange(depth + 1.0), 0.0)
+    u, w = _legendre(n)
+    lo, hi = bounds[1:], bounds[:-1]
+    uu = (lo[:, None] + (hi - lo)[:, None] * u).ravel()
+    return uu * uu, 2.0 * uu * ((hi - lo)[:, None] * w).ravel()
+
+
 def graded_half(end: float, length: float, direction: float, finest: float
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and weights on ``[end, end + direction length]`` after ``t = length u^2``: an edge
@@ -80,16 +96,13 @@ def graded_half(end: float, length: float, direction: float, finest: float
     innermost is at most ``sqrt(finest / length)`` (``finest`` in x)."""
     u_min = math.sqrt(max(finest, 1e-300) / length)
     depth = max(1, math.ceil(-math.log(min(u_min, 1.0)) / math.log(GRADING)))
-    bounds = np.append(GRADING ** -np.arange(depth + 1.0), 0.0)  # 1, 1/4, ..., 0
-    u, w = _legendre(PANEL_NODES)
-    lo, hi = bounds[1:], bounds[:-1]
-    uu = (lo[:, None] + (hi - lo)[:, None] * u).ravel()
-    wu = ((hi - lo)[:, None] * w).ravel()
-    return end + direction * length * uu * uu, 2.0 * length * uu * wu
+    t, w = _graded_reference(depth)
+    return end + direction * length * t, length * w
 
 
 def zone_rule(zones: list[tuple[float, float]], cuts: list[list[float]], span: float) -> Rule:
-    """The graded rule on every zone cut at ``cuts[k]`` (kinks and targets inside zone k)."""
+    """The graded rule on every zone cut at ``cuts[k]`` (kinks and targets inside zone k), each
+    piece halved, each half graded towards its end."""
     xs, ws, zs = [], [], []
     for k, (a, b) in enumerate(zones):
         pts = [a, *cuts[k], b]
@@ -97,8 +110,7 @@ def zone_rule(zones: list[tuple[float, float]], cuts: list[list[float]], span: f
         for i in range(len(pts) - 1):
             half = 0.5 * (pts[i + 1] - pts[i])
             for j, direction in ((i, 1.0), (i + 1, -1.0)):
-                x, w = graded_half(pts[j], half, direction,
-                                   _finest(pts, j, 0 < j < len(pts) - 1, half, outside))
+                x, w = graded_half(pts[j], half, direction, _finest(pts, j, half, outside))
                 xs.append(x)
                 ws.append(w)
                 zs.append(np.full(x.size, k))
@@ -112,26 +124,29 @@ def _outside_clearance(zones: list[tuple[float, float]], k: int, span: float) ->
     return min(d) if d else span
 
 
-def _finest(pts: list[float], j: int, inner: bool, half: float, outside: float) -> float:
-    """Innermost panel towards ``pts[j]`` (x scale): a quarter of the piece beyond it (or of the
-    distance to the next zone at an edge), and at least LOG_DEPTH levels (in u) at an ``inner``
-    point (kink or target)."""
+def _finest(pts: list[float], j: int, half: float, outside: float) -> float:
+    """Innermost panel towards ``pts[j]`` (x scale): a quarter of the piece beyond it (of the
+    distance to the next zone at an edge), and LOG_DEPTH levels in u at least (every cut is an
+    approach target: the kernel is log-singular there)."""
     beyond = [pts[j] - pts[j - 1]] if j > 0 else [outside]
     beyond += [pts[j + 1] - pts[j]] if j + 1 < len(pts) else [outside]
-    finest = 0.25 * min(beyond + [half])
-    if inner:
-        finest = min(finest, half * GRADING ** (-2 * LOG_DEPTH))
-    return max(finest, 1e-300)
+    finest = min(0.25 * min(beyond + [half]), half * GRADING ** (-2 * LOG_DEPTH))
+    return max(finest, FINEST * abs(pts[j]), 1e-300)
 
 
-def approach_targets(zones: list[tuple[float, float]], kinks: list[list[float]]
-                     ) -> list[list[float]]:
-    """Targets at TARGETS of every piece of every zone between its edges and kinks."""
+def approach_targets(zones: list[tuple[float, float]], singular: list[tuple[bool, bool]],
+                     kinks: list[list[float]]) -> list[list[float]]:
+    """Per zone: its nonsingular edges, its kinks and the middle of every piece between its
+    edges and kinks (at a singular edge ``p ln|x - s| ~ ln(u)/u^0`` needs a far deeper rule)."""
     out = []
-    for (a, b), ks in zip(zones, kinks, strict=True):
+    for (a, b), sing, ks in zip(zones, singular, kinks, strict=True):
         pts = [a, *ks, b]
-        out.append([lo + f * (hi - lo) for lo, hi in zip(pts[:-1], pts[1:], strict=True)
-                    for f in TARGETS])
+        mids = [0.5 * (lo + hi) for lo, hi in zip(pts[:-1], pts[1:], strict=True)]
+        ends = [e for e, s in ((a, sing[0]), (b, sing[1])) if not s]
+        if len(ends) + len(ks) + len(mids) < 3:  # e.g. a punch pinned at both corners
+            lo, hi = max(zip(pts[:-1], pts[1:], strict=True), key=lambda z: z[1] - z[0])
+            mids += [0.75 * lo + 0.25 * hi, 0.25 * lo + 0.75 * hi]
+        out.append(sorted([*ends, *ks, *mids]))
     return out
 
 
@@ -158,6 +173,19 @@ def gap_points(zones: list[tuple[float, float]], profile: Profile, span: float) 
     return x[~inside & np.isfinite(profile.h0(x))]
 
 
+def _h_zone_side(profile: Profile, zones: list[tuple[float, float]],
+                 targets: list[list[float]]) -> np.ndarray:
+    """h0 at the targets from the piece on the zone's side (at a corner edge the piece beyond
+    it may be another member of a union, or absent)."""
+    out = []
+    for (a, b), xs in zip(zones, targets, strict=True):
+        x = np.asarray(xs, float)
+        pieces = profile.piece_index(x + 1e-9 * (0.5 * (a + b) - x))
+        out += [float(profile.pieces[i].h(np.array([v]))[0]) for i, v in zip(pieces, xs,
+                                                                              strict=True)]
+    return np.asarray(out)
+
+
 def _inner_marks(profile: Profile, zones: list[tuple[float, float]]) -> list[list[float]]:
     return [[q for q in profile.kinks if a < q < b] for a, b in zones]
 
@@ -174,9 +202,9 @@ class Figures:
     nodes: int
 
     def as_residuals(self) -> dict[str, float]:
-        return {"check_load": self.load, "check_moment": self.moment,
-                "check_approach": self.approach, "check_min_pressure": self.min_pressure,
-                "check_min_gap": self.min_gap}
+        return {"selfcheck_load": self.load, "selfcheck_moment": self.moment,
+                "selfcheck_approach": self.approach,
+                "selfcheck_min_pressure": self.min_pressure, "selfcheck_min_gap": self.min_gap}
 
 
 def check_normal(profile: Profile, zones: list[tuple[float, float]],
@@ -188,10 +216,9 @@ def check_normal(profile: Profile, zones: list[tuple[float, float]],
     the moment is not checked."""
     _check_topology(profile, zones, singular)
     span = max(zones[-1][1] - zones[0][0], 1e-300)
-    kinks = _inner_marks(profile, zones)
-    targets = approach_targets(zones, kinks)
-    cuts = [sorted([*ks, *ts]) for ks, ts in zip(kinks, targets, strict=True)]
-    rule = zone_rule(zones, cuts, span)
+    targets = approach_targets(zones, singular, _inner_marks(profile, zones))
+    rule = zone_rule(zones, [[t for t in ts if a < t < b] for ts, (a, b) in
+                             zip(targets, zones, strict=True)], span)
     p = pressure(rule.x)
     figs = _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, targets, span)
     bad = _failures(figs)
@@ -206,7 +233,7 @@ def _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, targets, span)
     load = max(np.max(np.abs(per_zone - np.asarray(zone_loads))), abs(per_zone.sum() - P)) / P
     moment = 0.0 if M is None else abs(np.sum(rule.w * p * rule.x) - M) / (P * span)
     xt = np.concatenate([np.asarray(t, float) for t in targets])
-    delta = profile.h0(xt) - theta * xt + log_potential(rule, p, xt, A)
+    delta = _h_zone_side(profile, zones, targets) - theta * xt + log_potential(rule, p, xt, A)
     ref = 0.5 * (delta.max() + delta.min())
     xo = gap_points(zones, profile, span)
     g = profile.h0(xo) - theta * xo - ref + log_potential(rule, p, xo, A)
@@ -235,7 +262,7 @@ def _check_topology(profile: Profile, zones: list[tuple[float, float]],
         if not np.all(np.isfinite(profile.h0(np.linspace(a, b, 65)))):
             raise ConvergenceError("the self-check failed: a zone lies where h0 is infinite",
                                    {"zone": (a, b)})
-        steps = [q for q in profile.corners if a < q < b and _steps(profile, q)]
+        steps = [q for q in profile.corners if a < q < b and h0_steps(profile, q)]
         if steps:
             raise ConvergenceError("the self-check failed: a zone spans a sharp corner "
                                    "(contact beyond it)", {"zone": (a, b), "corners": steps})
@@ -245,7 +272,7 @@ def _check_topology(profile: Profile, zones: list[tuple[float, float]],
                                        "corner or ridge", {"edge": x})
 
 
-def _steps(profile: Profile, q: float) -> bool:
+def h0_steps(profile: Profile, q: float) -> bool:
     """Whether h0 jumps at the corner q."""
     d = 1e-9 * max(profile.scale, abs(q))
     lo, hi = profile.h0(np.array([q - d, q + d]))
