@@ -588,7 +588,7 @@ def _refined_minima(sys_: System, x: np.ndarray, profile: Profile) -> np.ndarray
 
 @dataclass(frozen=True)
 class _Event:
-    kind: str       # "add", "merge", "grow", "split", "shrink", "release", "pin"
+    kind: str       # "add", "merge", "grow", "split", "shrink", "release", "pin", "reseed"
     where: float
     index: int = -1
     interval: tuple[float, float] | None = None
@@ -784,7 +784,11 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         except _NewtonFailed as exc:
             pinned = _pin_nearest(st, profile, A, PIN_DISTANCE * st.layout.edge_widths())
             if pinned is None:
-                raise _StepFailed(str(exc)) from exc
+                st = _shrunk_new_zone(st, history, A)
+                if st is None:
+                    raise _StepFailed(str(exc)) from exc
+                history.append(_Event("reseed", float(np.mean(history[-1].interval))))
+                continue
             history.append(_Event("pin", pinned[1]))
             st = pinned[0]
             continue
@@ -802,6 +806,28 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         st = _apply_event(st, ev, sys_, profile)
         st.beta = _beta_for(st, A, st.P)
     raise _StepFailed(f"topology did not settle: {history}")
+
+
+RESEED_FRACTION = 0.25  # a new zone Newton failed from restarts at this part of its seed
+
+
+def _shrunk_new_zone(st: _State, history: list[_Event], A: float) -> _State | None:
+    """After a failed Newton solve from a zone just added on its overlap interval, the same
+    state with that zone shrunk about its centre to RESEED_FRACTION of the interval (just after
+    a zone's birth the zone is several times narrower than its overlap: a birth load of two
+    cylinders failed with "continuation stalled" while loads 1e-14 off solved); else None."""
+    if not history or history[-1].kind != "add" or history[-1].interval is None:
+        return None
+    lo, hi = history[-1].interval
+    e = st.layout.edges.copy()
+    k = np.flatnonzero((e[:-1] == lo) & (e[1:] == hi))
+    if not k.size:
+        return None
+    c, r = 0.5 * (lo + hi), 0.5 * RESEED_FRACTION * (hi - lo)
+    e[k[0]], e[k[0] + 1] = c - r, c + r
+    new = _fresh_state(Layout(e, st.layout.pinned), st.theta, st.P)
+    new.beta = _beta_for(new, A, st.P)
+    return new
 
 
 def _check_cycle(layout: Layout, starts: set[bytes], history: list[_Event]) -> None:

@@ -47,14 +47,21 @@ GAP_TOL = 1e-7
 """min deformed gap outside the zones relative to A P (same accuracy as delta)."""
 GRADING = 4.0
 """Ratio of neighbouring panels of the graded rule."""
-PANEL_NODES = 10
-"""Gauss nodes per panel."""
-LOG_DEPTH = 5
-"""Graded u-panels at least towards a kink or target (innermost u < 4^-5, t < 1e-6 of the half)."""
+PANEL_NODES = 8
+"""Gauss nodes per panel (loads to ~4e-12 P, delta to ~6e-10 A P on cylinders) ..."""
+KINKED_PANEL_NODES = 10
+"""... and in a zone with kinks (8 left 4e-10 P on a rounded punch whose edge lies 1e-3 of the
+face width beyond the corner's kink; 10 give 6e-12 P)."""
+LOG_DEPTH = 4
+"""Graded u-panels at least towards an approach target (innermost u < 4^-4, t < 4e-6 of the
+half; the kernel is log-singular there: delta to ~4e-10 A P on cylinders)."""
+KINK_DEPTH = 6
+"""... and towards a kink, where p itself may be log-singular (a wedge apex: loads to 1e-11 P;
+4 levels left 6e-10 P)."""
 FINEST = 1e-11
 """Innermost panel at least this times |x|: its nodes stay ~1e-12 |x| from the point (p itself
 is not computable closer to a kink, where x rounds)."""
-GAP_POINTS = (1e-3, 1e-2, 0.1, 0.25, 0.5, 0.75, 0.9, 0.99, 0.999)
+GAP_POINTS = (1e-3, 0.03, 0.2, 0.5, 0.8, 0.97, 0.999)
 """Gap samples across every gap (fractions), and beyond the outer edges (times the span)."""
 
 
@@ -73,12 +80,8 @@ def _legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (t + 1.0), 0.5 * w
 
 
-def _graded_reference(depth: int) -> tuple[np.ndarray, np.ndarray]:
-    return _graded_reference_n(depth, PANEL_NODES)
-
-
 @lru_cache(maxsize=64)
-def _graded_reference_n(depth: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+def _graded_reference(depth: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Nodes u in (0, 1) and weights of ``int_0^1 2 u f(u^2) du`` on Gauss-Legendre panels
     ``[GRADING^-(m+1), GRADING^-m]``, m < depth, and ``[0, GRADING^-depth]``."""
     bounds = np.append(GRADING ** -np.arange(depth + 1.0), 0.0)
@@ -88,29 +91,33 @@ def _graded_reference_n(depth: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     return uu * uu, 2.0 * uu * ((hi - lo)[:, None] * w).ravel()
 
 
-def graded_half(end: float, length: float, direction: float, finest: float
-                ) -> tuple[np.ndarray, np.ndarray]:
+def graded_half(end: float, length: float, direction: float, finest: float,
+                n: int = PANEL_NODES) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and weights on ``[end, end + direction length]`` after ``t = length u^2``: an edge
     factor ``t^(+-1/2)`` times ``dt = 2 length u du`` is smooth in u, a log singularity becomes
-    ``u ln u``.  Gauss-Legendre panels in u shrink geometrically towards ``u = 0`` until the
-    innermost is at most ``sqrt(finest / length)`` (``finest`` in x)."""
+    ``u ln u``.  Gauss-Legendre panels of n nodes in u shrink geometrically towards ``u = 0``
+    until the innermost is at most ``sqrt(finest / length)`` (``finest`` in x)."""
     u_min = math.sqrt(max(finest, 1e-300) / length)
     depth = max(1, math.ceil(-math.log(min(u_min, 1.0)) / math.log(GRADING)))
-    t, w = _graded_reference(depth)
+    t, w = _graded_reference(depth, n)
     return end + direction * length * t, length * w
 
 
-def zone_rule(zones: list[tuple[float, float]], cuts: list[list[float]], span: float) -> Rule:
+def zone_rule(zones: list[tuple[float, float]], cuts: list[list[float]],
+              kinks: list[list[float]], span: float) -> Rule:
     """The graded rule on every zone cut at ``cuts[k]`` (kinks and targets inside zone k), each
-    piece halved, each half graded towards its end."""
+    piece halved, each half graded towards its end (deeper at the ``kinks``)."""
     xs, ws, zs = [], [], []
     for k, (a, b) in enumerate(zones):
         pts = [a, *cuts[k], b]
         outside = _outside_clearance(zones, k, span)
+        n = KINKED_PANEL_NODES if kinks[k] else PANEL_NODES
         for i in range(len(pts) - 1):
             half = 0.5 * (pts[i + 1] - pts[i])
             for j, direction in ((i, 1.0), (i + 1, -1.0)):
-                x, w = graded_half(pts[j], half, direction, _finest(pts, j, half, outside))
+                depth = KINK_DEPTH if pts[j] in kinks[k] else LOG_DEPTH
+                x, w = graded_half(pts[j], half, direction,
+                                   _finest(pts, j, half, outside, depth), n)
                 xs.append(x)
                 ws.append(w)
                 zs.append(np.full(x.size, k))
@@ -124,13 +131,12 @@ def _outside_clearance(zones: list[tuple[float, float]], k: int, span: float) ->
     return min(d) if d else span
 
 
-def _finest(pts: list[float], j: int, half: float, outside: float) -> float:
+def _finest(pts: list[float], j: int, half: float, outside: float, depth: int) -> float:
     """Innermost panel towards ``pts[j]`` (x scale): a quarter of the piece beyond it (of the
-    distance to the next zone at an edge), and LOG_DEPTH levels in u at least (every cut is an
-    approach target: the kernel is log-singular there)."""
+    distance to the next zone at an edge), and ``depth`` levels in u at least."""
     beyond = [pts[j] - pts[j - 1]] if j > 0 else [outside]
     beyond += [pts[j + 1] - pts[j]] if j + 1 < len(pts) else [outside]
-    finest = min(0.25 * min(beyond + [half]), half * GRADING ** (-2 * LOG_DEPTH))
+    finest = min(0.25 * min(beyond + [half]), half * GRADING ** (-2 * depth))
     return max(finest, FINEST * abs(pts[j]), 1e-300)
 
 
@@ -177,13 +183,13 @@ def _h_zone_side(profile: Profile, zones: list[tuple[float, float]],
                  targets: list[list[float]]) -> np.ndarray:
     """h0 at the targets from the piece on the zone's side (at a corner edge the piece beyond
     it may be another member of a union, or absent)."""
-    out = []
-    for (a, b), xs in zip(zones, targets, strict=True):
-        x = np.asarray(xs, float)
-        pieces = profile.piece_index(x + 1e-9 * (0.5 * (a + b) - x))
-        out += [float(profile.pieces[i].h(np.array([v]))[0]) for i, v in zip(pieces, xs,
-                                                                              strict=True)]
-    return np.asarray(out)
+    x = np.concatenate([np.asarray(t, float) for t in targets])
+    mid = np.repeat([0.5 * (a + b) for a, b in zones], [len(t) for t in targets])
+    idx = profile.piece_index(x + 1e-9 * (mid - x))
+    out = np.full(x.shape, np.inf)
+    for i in np.unique(idx[idx >= 0]).tolist():
+        out[idx == i] = profile.pieces[i].h(x[idx == i])
+    return out
 
 
 def _inner_marks(profile: Profile, zones: list[tuple[float, float]]) -> list[list[float]]:
@@ -214,11 +220,12 @@ def check_normal(profile: Profile, zones: list[tuple[float, float]],
     """Check a normal solution from its pressure and the profile only; raise
     :class:`ConvergenceError` with the figures when any exceeds its tolerance.  ``M`` None:
     the moment is not checked."""
-    _check_topology(profile, zones, singular)
     span = max(zones[-1][1] - zones[0][0], 1e-300)
-    targets = approach_targets(zones, singular, _inner_marks(profile, zones))
+    kinks = _inner_marks(profile, zones)
+    targets = approach_targets(zones, singular, kinks)
     rule = zone_rule(zones, [[t for t in ts if a < t < b] for ts, (a, b) in
-                             zip(targets, zones, strict=True)], span)
+                             zip(targets, zones, strict=True)], kinks, span)
+    _check_topology(profile, zones, singular, rule)
     p = pressure(rule.x)
     figs = _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, targets, span)
     bad = _failures(figs)
@@ -255,13 +262,16 @@ def _failures(f: Figures) -> list[str]:
 
 
 def _check_topology(profile: Profile, zones: list[tuple[float, float]],
-                    singular: list[tuple[bool, bool]]) -> None:
-    """No zone over infinite h0 or a step of h0; singular edges only at corners or ridges."""
+                    singular: list[tuple[bool, bool]], rule: Rule) -> None:
+    """No zone over infinite h0 (at the rule's nodes) or a step of h0; singular edges only at
+    corners or ridges."""
     pins = set(profile.pin_points)
+    lo, hi = profile.support
+    if zones[0][0] < lo or zones[-1][1] > hi or (
+            profile.pieces_have_gaps and not np.all(np.isfinite(profile.h0(rule.x)))):
+        raise ConvergenceError("the self-check failed: a zone lies where h0 is infinite",
+                               {"zones": zones})
     for (a, b), sing in zip(zones, singular, strict=True):
-        if not np.all(np.isfinite(profile.h0(np.linspace(a, b, 65)))):
-            raise ConvergenceError("the self-check failed: a zone lies where h0 is infinite",
-                                   {"zone": (a, b)})
         steps = [q for q in profile.corners if a < q < b and h0_steps(profile, q)]
         if steps:
             raise ConvergenceError("the self-check failed: a zone spans a sharp corner "

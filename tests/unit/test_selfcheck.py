@@ -10,7 +10,10 @@ from analytic.errors import ConvergenceError
 from analytic.selfcheck import APPROACH_TOL, LOAD_TOL, check_normal, graded_half
 
 RULE_TOL = 1e-10
-"""Figures of exact closed-form pressures (measured: 2e-11 on the punch's 1/sqrt ends)."""
+"""Load figures of exact closed-form pressures (measured: 2e-11 on the punch's 1/sqrt ends)."""
+RULE_APPROACH_TOL = 2e-9
+"""Spread of delta / (A P) for exact pressures (measured 6.4e-10 on Hertz: the log kernel at the
+edges, LOG_DEPTH = 4)."""
 
 
 def hertz_pressure(a: float, P: float):
@@ -36,10 +39,10 @@ def test_closed_forms_pass_with_small_figures() -> None:
     a = np.sqrt(2 * A * P / np.pi)
     figs = check_normal(profiles.cylinder(1.0), [(-a, a)], [(False, False)], [P], P, 0.0, 0.0, A,
                         hertz_pressure(a, P))
-    assert figs.load < RULE_TOL and figs.approach < RULE_TOL and figs.min_gap == 0.0
+    assert figs.load < RULE_TOL and figs.approach < RULE_APPROACH_TOL and figs.min_gap == 0.0
     figs = check_normal(profiles.flat_punch(-1, 1), [(-1.0, 1.0)], [(True, True)], [P], P, 0.0,
                         0.0, A, punch_pressure(1.0, P))
-    assert figs.load < RULE_TOL and figs.approach < RULE_TOL and figs.moment < RULE_TOL
+    assert figs.load < RULE_TOL and figs.approach < RULE_APPROACH_TOL and figs.moment < RULE_TOL
 
 
 def test_a_wrong_pressure_is_caught() -> None:

@@ -111,3 +111,31 @@ def test_rounded_punch_beside_cylinders_load_shares(with_small: bool) -> None:
         ZONE_LOAD_TOL * P_LIGHT, "the discretised reference is not converged"
     assert np.max(np.abs(np.subtract(sol.zone_loads, bem[1].zone_loads))) < \
         ZONE_LOAD_TOL * P_LIGHT
+
+
+BIRTH_LOAD = 0.002062471208874857
+"""Where the second zone of :func:`_two_cylinders` is born (bisection to 4e-13 relative with this
+solver: one zone at 1 - 1e-12, two at 1 + 1e-12).  The solver's birth is where the overlap at the
+second cylinder exceeds its admissibility tolerance (1e-9 A P)."""
+
+
+def _two_cylinders() -> profiles.Profile:
+    return profiles.union(profiles.cylinder(2.0, center=-0.5),
+                          profiles.cylinder(0.3, center=1.0, lift=0.003))
+
+
+FAILED_NEAR_BIRTH = 0.002062471212111426
+"""Raised "continuation stalled" (1.57e-9 above the birth): Newton failed from the new zone's
+overlap interval, 4.5 times the zone's width, at every continuation step."""
+
+
+@pytest.mark.parametrize("P", [BIRTH_LOAD * (1 + f) for f in
+                               (0.0, 1e-12, -1e-12, 1e-7, -1e-7, 1e-5, -1e-5)]
+                         + [FAILED_NEAR_BIRTH])
+def test_loads_at_a_zone_birth_solve(P: float) -> None:
+    """A load at a topology event must solve (a birth load is where users bisect); the failed
+    start is now restarted from a seed a quarter of the overlap interval."""
+    sol = analytic.solve_normal(_two_cylinders(), P, 1.0)
+    if abs(P / BIRTH_LOAD - 1) >= 1e-12:
+        assert sol.n_zones == (1 if P < BIRTH_LOAD else 2)
+    assert sol.residuals["selfcheck_approach"] < 1e-7
