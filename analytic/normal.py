@@ -787,7 +787,7 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
                 st = _shrunk_new_zone(st, history, A)
                 if st is None:
                     raise _StepFailed(str(exc)) from exc
-                history.append(_Event("reseed", float(np.mean(history[-1].interval))))
+                history.append(_Event("reseed", history[-1].where))
                 continue
             history.append(_Event("pin", pinned[1]))
             st = pinned[0]
@@ -813,9 +813,10 @@ RESEED_FRACTION = 0.25  # a new zone Newton failed from restarts at this part of
 
 def _shrunk_new_zone(st: _State, history: list[_Event], A: float) -> _State | None:
     """After a failed Newton solve from a zone just added on its overlap interval, the same
-    state with that zone shrunk about its centre to RESEED_FRACTION of the interval (just after
-    a zone's birth the zone is several times narrower than its overlap: a birth load of two
-    cylinders failed with "continuation stalled" while loads 1e-14 off solved); else None."""
+    state with that zone shrunk towards the deepest overlap to RESEED_FRACTION of the interval
+    (just after a zone's birth the zone is several times narrower than its overlap: a birth load
+    of two cylinders failed with "continuation stalled" while loads 1e-14 off solved; a zone
+    born at a double wedge's apex, audit seed 178); else None."""
     if not history or history[-1].kind != "add" or history[-1].interval is None:
         return None
     lo, hi = history[-1].interval
@@ -823,8 +824,8 @@ def _shrunk_new_zone(st: _State, history: list[_Event], A: float) -> _State | No
     k = np.flatnonzero((e[:-1] == lo) & (e[1:] == hi))
     if not k.size:
         return None
-    c, r = 0.5 * (lo + hi), 0.5 * RESEED_FRACTION * (hi - lo)
-    e[k[0]], e[k[0] + 1] = c - r, c + r
+    c = history[-1].where  # the deepest overlap (a wedge's apex: not the interval's middle)
+    e[k[0]], e[k[0] + 1] = c - RESEED_FRACTION * (c - lo), c + RESEED_FRACTION * (hi - c)
     new = _fresh_state(Layout(e, st.layout.pinned), st.theta, st.P)
     new.beta = _beta_for(new, A, st.P)
     return new

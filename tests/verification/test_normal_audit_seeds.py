@@ -152,3 +152,16 @@ def test_tabulated_audit_seeds_solve_in_moment_mode(seed: int) -> None:
     sol = analytic.solve_normal(wavy_table(R, waves), P, 1.0, M)
     assert sol.n_zones == 1
     assert sol.residuals["selfcheck_load"] < SPLINE_FACTOR * LOAD_TOL
+
+
+def test_moment_on_a_double_wedge_with_a_zone_born_at_an_apex() -> None:
+    """Audit seed 178: a fixed-rotation solve inside the moment bracket stalled: the zone born
+    at the left apex was seeded on its overlap interval, Newton failed, and the reseed about the
+    interval's middle left the apex outside the zone.  The reseed now shrinks towards the
+    deepest overlap.  Zones against the BEM within two panels."""
+    prof = profiles.double_wedge(0.3556921651011607, 0.05098126613136115, 0.27815010608980983)
+    P, M = 0.0004054988121888101, 5.255065129579588e-05
+    sol = analytic.solve_normal(prof, P, 1.0, M)
+    bem = solve_normal_bem(prof.h0, (-0.4, 0.4), 2048, P, 1.0, M=M)
+    assert sol.n_zones == len(bem.zones) == 2
+    assert np.max(np.abs(np.subtract(sol.zones, bem.zones))) < 2 * bem.dx
