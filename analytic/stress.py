@@ -48,12 +48,13 @@ is the limit ``Re F(x + i e) + e Im F'(x + i e)`` at a tiny lift ``e`` (error O(
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
 
-from analytic.errors import InputError
+from analytic.errors import ConvergenceError, InputError
 from analytic.normal import NormalSolution
 from analytic.stick import StickSolution, _breakpoints, _split_at_kinks
 
@@ -65,19 +66,35 @@ RHO_NEAR = 3.0
 """Targets whose pole lies inside this Bernstein ellipse of a panel get the refined rule."""
 GRADE = 3.0
 """Ratio of consecutive refined sub-panels (a sub-panel's pole is >= its half-width away)."""
-KINK_LEVELS = 12
-"""Extra panels graded by 1/4 towards a kink end (the density is ~ t log t there)."""
+KINK_LEVELS = 3
+"""Extra panels graded by 1/4 towards a kink end (the density is ~ t log t there).  The nearest
+node stays ~2e-9 sub-interval half-widths from the kink: the pressure's own kink rule divides
+0/0 within ~1e-14 of a kink."""
 MIN_POLE = 1e-13
 """Smallest pole distance (panel units) resolved; closer targets use this distance."""
 TARGET_CHUNK = 2048
 """Targets per block of the far-field sums (memory ~ TARGET_CHUNK x nodes complex)."""
 NEAR_MARGIN = 1.05
 """Safety factor on the radius of the disc that pre-selects near targets (boundary sampling)."""
+TAIL_TOL = 1e-12
+"""A panel is halved while the last two Legendre coefficients of a density exceed this fraction
+of its largest value (a steep stick-zone pressure near a zone split needs it)."""
+SPLIT_ROUNDS = 12
+"""At most this many halvings of a panel."""
+MIN_PANEL = 1e-4
+"""Narrowest panel in t (the pressure's kink rule fails within ~1e-14 of a kink)."""
+COARSE_MOMENTS = 8
+"""Moments compared before a sub-interval's far targets use its one coarse block."""
+COARSE_TOL = 1e-12
+"""Agreement of those moments with the panels', relative to int |G|."""
+QUAD_MEMO = 8
+"""Solutions whose sampled tractions are kept (by identity, while they are alive)."""
 SURFACE_LIFT = 1e-6
 """Surface principal values are taken this fraction of the distance to the nearest sub-interval
 end above the surface, with a first-order Taylor correction (see _principal_values)."""
-SURFACE_LIFT_MIN = 1e-13
-"""Floor of that distance, relative to the contact span (a point on an edge)."""
+SURFACE_LIFT_MIN = 1e-6
+"""Floor of that distance, relative to the contact span: on a sub-interval end the lift is
+1e-12 of the span (the error there is O(sqrt(e)) relative, ~1e-6, from the sqrt ends)."""
 SNAP = 1e-3
 """A pole's foot within SNAP x its distance of a panel end is put on the end."""
 PAIR_CHUNK = 256
@@ -226,10 +243,20 @@ def _intervals(solution) -> list[tuple[float, float, bool, bool]]:
 
 
 def _tractions(solution, x: np.ndarray) -> np.ndarray:
-    """``(p, q)`` at x, shape (x.size, 2); q = 0 for a normal solution."""
+    """``(p, q)`` at x, shape (x.size, 2); q = 0 for a normal solution.
+
+    Raises :class:`ConvergenceError` if a traction is not finite (the pressure is not
+    evaluated closer than ~1e-9 of a sub-interval to a kink, see KINK_LEVELS).
+    """
     if isinstance(solution, StickSolution):
-        return np.column_stack([solution.normal.pressure(x), solution.shear(x)])
-    return np.column_stack([solution.pressure(x), np.zeros(x.size)])
+        out = np.column_stack([solution.normal.pressure(x), solution.shear(x)])
+    else:
+        out = np.column_stack([solution.pressure(x), np.zeros(x.size)])
+    bad = ~np.all(np.isfinite(out), axis=1)
+    if np.any(bad):
+        raise ConvergenceError(f"the tractions are not finite at x = {x[bad][:5]!r}: the "
+                               "stresses cannot be integrated", {"x": x[bad]})
+    return out
 
 
 def _rule(solution, blocks: list[tuple[float, float, float, float, int]]) -> _Rule:
@@ -249,16 +276,106 @@ def _rule(solution, blocks: list[tuple[float, float, float, float, int]]) -> _Ru
 
 
 def _quadrature(solution) -> _Quadrature:
+    """The panels of a solution, remembered for the last QUAD_MEMO solutions (stress and
+    surface_stress of one state sample the tractions once)."""
+    key = id(solution)
+    hit = _MEMO.get(key)
+    if hit is not None and hit[0]() is solution:
+        return hit[1]
+    quad = _build_quadrature(solution)
+    _MEMO[key] = (weakref.ref(solution), quad)
+    while len(_MEMO) > QUAD_MEMO:
+        _MEMO.pop(next(iter(_MEMO)))
+    return quad
+
+
+_MEMO: dict[int, tuple[weakref.ref, _Quadrature]] = {}
+
+
+def _build_quadrature(solution) -> _Quadrature:
     subs = _intervals(solution)
-    fine, coarse = [], []
-    for k, (lo, hi, kl, kr) in enumerate(subs):
-        t = _t_breaks(kl, kr)
-        fine += [(lo, hi, a, b, k) for a, b in zip(t[:-1], t[1:], strict=True)]
-        if not (kl or kr):
-            coarse.append((lo, hi, 0.0, np.pi, k))
-    smooth = np.array([not (kl or kr) for _, _, kl, kr in subs])
-    empty = [(0.0, 0.0, 0.0, 0.0, 0)]  # a block of zero weight keeps the arrays shaped
-    return _Quadrature(_rule(solution, fine), _rule(solution, coarse or empty), smooth)
+    blocks = [(lo, hi, a, b, k) for k, (lo, hi, kl, kr) in enumerate(subs)
+              for a, b in _pairs(_t_breaks(kl, kr))]
+    kink_ends = {(k, end) for k, (_, _, kl, kr) in enumerate(subs)
+                 for end, is_kink in ((0.0, kl), (np.pi, kr)) if is_kink}
+    panels = _adapted(solution, blocks, kink_ends)
+    coarse = _rule(solution, [(lo, hi, 0.0, np.pi, k) for k, (lo, hi, _, _) in enumerate(subs)])
+    smooth = _coarse_agrees(coarse, panels) & np.array([not (kl or kr) for _, _, kl, kr in subs])
+    return _Quadrature(panels, coarse, smooth)
+
+
+def _coarse_agrees(coarse: _Rule, panels: _Rule) -> np.ndarray:
+    """Per sub-interval: the coarse block integrates ``G T_k(cos t)``, ``k < COARSE_MOMENTS``,
+    as its panels do, to COARSE_TOL of ``int |G|`` after weighting by ``RHO_NEAR^-k`` (a far
+    target's kernel ``1/(s - w)`` expands in these with coefficients ~ ``rho^-k``)."""
+    def moments(rule: _Rule) -> np.ndarray:
+        u = _legendre(PANEL_NODES)[0]
+        t = (0.5 * (rule.ta + rule.tb)[:, None] + 0.5 * (rule.tb - rule.ta)[:, None] * u).ravel()
+        T = np.cos(np.arange(COARSE_MOMENTS)[None, :] * t[:, None])
+        out = np.zeros((coarse.lo.size, COARSE_MOMENTS, 2))
+        np.add.at(out, rule.parent.repeat(PANEL_NODES), (rule.wt[:, None] * T)[:, :, None]
+                  * rule.G[:, None, :])
+        return out
+
+    size = np.zeros((coarse.lo.size, 2))
+    np.add.at(size, panels.parent.repeat(PANEL_NODES), panels.wt[:, None] * np.abs(panels.G))
+    decay = RHO_NEAR ** -np.arange(COARSE_MOMENTS)[None, :, None]  # far kernels' weights
+    diff = np.max(np.abs(moments(coarse) - moments(panels)) * decay, axis=1)
+    return np.all(diff <= COARSE_TOL * np.where(size > 0, size, 1.0), axis=1)
+
+
+def _pairs(t: np.ndarray) -> list[tuple[float, float]]:
+    return list(zip(t[:-1], t[1:], strict=True))
+
+
+def _scales(rule: _Rule) -> np.ndarray:
+    """Largest |G| per density (a zero density gets scale 1: nothing to resolve)."""
+    m = np.max(np.abs(rule.G), axis=0)
+    return np.where(m > 0, m, 1.0)
+
+
+def _unresolved(rule: _Rule, scale: np.ndarray) -> np.ndarray:
+    """Blocks whose last two Legendre coefficients exceed TAIL_TOL of the density scale."""
+    tail = np.max(np.abs(rule.coef[:, -2:, :]), axis=1) / scale
+    return np.any(tail > TAIL_TOL, axis=1)
+
+
+def _adapted(solution, blocks: list, kink_ends: set) -> _Rule:
+    """Panels halved in t until every density is resolved (TAIL_TOL), at most SPLIT_ROUNDS
+    times and not below MIN_PANEL; the graded panels at a kink end are kept (t log t there)."""
+    done: list[_Rule] = []
+    rule = _rule(solution, blocks)
+    scale = _scales(rule)
+    for _ in range(SPLIT_ROUNDS):
+        bad = _unresolved(rule, scale) & (rule.tb - rule.ta > 2 * MIN_PANEL)
+        bad &= ~np.array([(k, 0.0) in kink_ends and a == 0.0 or (k, np.pi) in kink_ends
+                          and b == np.pi for k, a, b in zip(rule.parent, rule.ta, rule.tb,
+                                                            strict=True)])
+        done.append(_take(rule, np.flatnonzero(~bad)))
+        if not bad.any():
+            break
+        j = np.flatnonzero(bad)
+        mid = 0.5 * (rule.ta[j] + rule.tb[j])
+        new = [(rule.lo[i], rule.hi[i], a, b, rule.parent[i]) for i, m in zip(j, mid, strict=True)
+               for a, b in ((rule.ta[i], m), (m, rule.tb[i]))]
+        rule = _rule(solution, new)
+    else:
+        done.append(rule)
+    merged = _concat(done)
+    return _take(merged, np.lexsort((merged.ta, merged.parent)))
+
+
+def _take(rule: _Rule, blocks: np.ndarray) -> _Rule:
+    """The rule restricted to (and ordered as) ``blocks``."""
+    nodes = rule.nodes(blocks).ravel()
+    return _Rule(lo=rule.lo[blocks], hi=rule.hi[blocks], ta=rule.ta[blocks], tb=rule.tb[blocks],
+                 parent=rule.parent[blocks], s=rule.s[nodes], wt=rule.wt[nodes],
+                 G=rule.G[nodes], coef=rule.coef[blocks])
+
+
+def _concat(rules: list[_Rule]) -> _Rule:
+    return _Rule(*(np.concatenate([getattr(r, f) for r in rules])
+                   for f in ("lo", "hi", "ta", "tb", "parent", "s", "wt", "G", "coef")))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -440,12 +557,16 @@ def _swap_coarse(quad: _Quadrature, w: np.ndarray, F: np.ndarray, dF: np.ndarray
     if not quad.smooth.any():
         return near
     it, jc, _ = _near_pairs(quad.coarse, w)
+    use = quad.smooth[quad.coarse.parent[jc]]  # the others are summed by panels anyway
+    it, jc = it[use], jc[use]
     sub = quad.coarse.parent[jc]
     near[it, sub] = True
     _correct(F, dF, it, (0.0, 0.0), _block_sums(quad.coarse, w[it], jc))
-    first = np.searchsorted(quad.panels.parent, sub)  # the panels of a sub-interval are
-    for j in range(PANELS):                           # consecutive (smooth: exactly PANELS)
-        _correct(F, dF, it, _block_sums(quad.panels, w[it], first + j), (0.0, 0.0))
+    first = np.searchsorted(quad.panels.parent, sub)  # a sub-interval's panels are consecutive
+    count = np.bincount(quad.panels.parent, minlength=quad.smooth.size)[sub]
+    for j in range(int(count.max(initial=0))):
+        m = j < count
+        _correct(F, dF, it[m], _block_sums(quad.panels, w[it[m]], first[m] + j), (0.0, 0.0))
     return near
 
 
