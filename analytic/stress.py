@@ -73,7 +73,9 @@ node stays ~2e-9 sub-interval half-widths from the kink: the pressure's own kink
 MIN_POLE = 1e-13
 """Smallest pole distance (panel units) resolved; closer targets use this distance."""
 TARGET_CHUNK = 2048
-"""Targets per block of the far-field sums (memory ~ TARGET_CHUNK x nodes complex)."""
+"""Targets per block of the near-pair search."""
+CHUNK_ENTRIES = 2**21
+"""Target x node entries per block of the far-field sums (32 MB of complex)."""
 NEAR_MARGIN = 1.05
 """Safety factor on the radius of the disc that pre-selects near targets (boundary sampling)."""
 TAIL_TOL = 1e-12
@@ -81,6 +83,8 @@ TAIL_TOL = 1e-12
 of its largest value (a steep stick-zone pressure near a zone split needs it)."""
 SPLIT_ROUNDS = 12
 """At most this many halvings of a panel."""
+MAX_PANELS = 4000
+"""Most panels of one solution (~1 ms of traction evaluations each)."""
 MIN_PANEL = 1e-4
 """Narrowest panel in t (the pressure's kink rule fails within ~1e-14 of a kink)."""
 COARSE_MOMENTS = 8
@@ -317,21 +321,22 @@ def _coarse_agrees(coarse: _Rule, panels: _Rule) -> np.ndarray:
                   * rule.G[:, None, :])
         return out
 
-    size = np.zeros((coarse.lo.size, 2))
-    np.add.at(size, panels.parent.repeat(PANEL_NODES), panels.wt[:, None] * np.abs(panels.G))
+    size = np.zeros(coarse.lo.size)
+    np.add.at(size, panels.parent.repeat(PANEL_NODES), panels.wt * np.max(np.abs(panels.G), 1))
     decay = RHO_NEAR ** -np.arange(COARSE_MOMENTS)[None, :, None]  # far kernels' weights
     diff = np.max(np.abs(moments(coarse) - moments(panels)) * decay, axis=1)
-    return np.all(diff <= COARSE_TOL * np.where(size > 0, size, 1.0), axis=1)
+    return np.all(diff <= COARSE_TOL * np.where(size > 0, size, 1.0)[:, None], axis=1)
 
 
 def _pairs(t: np.ndarray) -> list[tuple[float, float]]:
     return list(zip(t[:-1], t[1:], strict=True))
 
 
-def _scales(rule: _Rule) -> np.ndarray:
-    """Largest |G| per density (a zero density gets scale 1: nothing to resolve)."""
-    m = np.max(np.abs(rule.G), axis=0)
-    return np.where(m > 0, m, 1.0)
+def _scales(rule: _Rule) -> float:
+    """Largest |G| of both densities: q is resolved relative to p's scale (a shear that
+    cancels to rounding noise, e.g. a flat punch at Q = 0 in stage 3, needs no panels)."""
+    m = float(np.max(np.abs(rule.G)))
+    return m if m > 0 else 1.0
 
 
 def _unresolved(rule: _Rule, scale: np.ndarray) -> np.ndarray:
@@ -354,6 +359,11 @@ def _adapted(solution, blocks: list, kink_ends: set) -> _Rule:
         done.append(_take(rule, np.flatnonzero(~bad)))
         if not bad.any():
             break
+        if sum(r.lo.size for r in done) + 2 * bad.sum() > MAX_PANELS:
+            raise ConvergenceError(
+                f"the tractions need more than MAX_PANELS={MAX_PANELS} panels to reach a "
+                f"Legendre tail of {TAIL_TOL:g}: they are not smooth between the breakpoints",
+                {"unresolved_t": list(zip(rule.ta[bad], rule.tb[bad], strict=True))[:10]})
         j = np.flatnonzero(bad)
         mid = 0.5 * (rule.ta[j] + rule.tb[j])
         new = [(rule.lo[i], rule.hi[i], a, b, rule.parent[i]) for i, m in zip(j, mid, strict=True)
@@ -386,10 +396,11 @@ def _far(s: np.ndarray, WG: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.n
     WG = WG.astype(complex)  # complex @ complex runs in BLAS
     F = np.empty((w.size, WG.shape[1]), complex)
     dF = np.empty_like(F)
-    for i in range(0, w.size, TARGET_CHUNK):
-        k1 = 1.0 / (s[None, :] - w[i:i + TARGET_CHUNK, None])
-        F[i:i + TARGET_CHUNK] = k1 @ WG
-        dF[i:i + TARGET_CHUNK] = (k1 * k1) @ WG
+    rows = max(1, CHUNK_ENTRIES // max(s.size, 1))
+    for i in range(0, w.size, rows):
+        k1 = 1.0 / (s[None, :] - w[i:i + rows, None])
+        F[i:i + rows] = k1 @ WG
+        dF[i:i + rows] = (k1 * k1) @ WG
     return F, dF
 
 

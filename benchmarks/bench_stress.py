@@ -21,10 +21,8 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # threaded BLAS on 2 cores is 30-100x slower
 
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-
 import numpy as np  # noqa: E402
+from bench_analytic import best_time  # noqa: E402  (run as a script: benchmarks/ on the path)
 
 import analytic  # noqa: E402
 from analytic import profiles  # noqa: E402
@@ -33,16 +31,6 @@ A, P, MU, NU = 4 * (1 - 0.3**2) / 210e3, 100.0, 0.3, 0.3
 REPEATS = 10
 TARGET_GRID = 0.5
 """Seconds allowed for the 200 x 100 grid of a two-zone stick solution (issue 17)."""
-
-
-def best_time(fn: Callable[[], object], repeats: int = REPEATS) -> float:
-    """Best wall time of ``repeats`` calls [s]."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def grid(sol) -> tuple[np.ndarray, np.ndarray]:
@@ -91,9 +79,9 @@ def hertz_error() -> float:
 def main() -> None:
     st = two_zone_state()
     X, Y = grid(st)
-    t_grid = best_time(lambda: analytic.stress(st, X, Y, nu=NU))
+    t_grid = best_time(lambda: analytic.stress(st, X, Y, nu=NU), REPEATS)
     xs = np.linspace(st.normal.zones[0][0], st.normal.zones[-1][1], 2000)
-    t_surf = best_time(lambda: analytic.surface_stress(st, xs))
+    t_surf = best_time(lambda: analytic.surface_stress(st, xs), REPEATS)
     err = hertz_error()
     print(f"{'row':<52} {'value':>12} {'target':>10}  verdict")
     print(f"{'stress, 200 x 100 grid, two-zone stick state [s]':<52} {t_grid:>12.4f} "
