@@ -252,8 +252,8 @@ def _tractions(solution, x: np.ndarray) -> np.ndarray:
     Raises :class:`ConvergenceError` if a traction is not finite (the pressure is not
     evaluated closer than ~1e-9 of a sub-interval to a kink, see KINK_LEVELS).
     """
-    if isinstance(solution, StickSolution):
-        out = np.column_stack([solution.normal.pressure(x), solution.shear(x)])
+    if isinstance(solution, StickSolution):  # p evaluated once for both
+        out = np.column_stack(solution._pressure_and_shear(x))
     else:
         out = np.column_stack([solution.pressure(x), np.zeros(x.size)])
     bad = ~np.all(np.isfinite(out), axis=1)
