@@ -29,6 +29,7 @@ from compare.report import figures, region, zones
 from compare.report.fig5 import fig5_rows
 from compare.report.html import case_html, case_md, page, study_html, verdict_text
 from compare.report.render3d import render_bodies
+from compare.report.stress import stress_figures
 from compare.run import CaseResult, run_case
 
 #: The default suite of ``make run`` (each at its library FE level; about 1-2 minutes on 2 cores).
@@ -60,6 +61,7 @@ def _write_figs(sec: CaseSection, root: Path) -> None:
             "shear (stages 2 and 3), per zone": zones.shear_figure(res),
             "stick zones over the cycle": figures.stick_cycle_figure(res),
             "contact region: sigma_xx and interface status": region.region_figure(res)}
+    made.update(stress_figures(res))
     sec.figures = {k: v for k, v in made.items() if v is not None}
     fig_dir = root / "figures"
     fig_dir.mkdir(exist_ok=True)
