@@ -1,4 +1,5 @@
-"""Verification report: ``DIR/index.html`` (self-contained), ``DIR/report.md``, ``DIR/summary.json``.
+"""Verification report: ``DIR/index.html`` (self-contained), ``DIR/report.md`` and
+``DIR/summary.json``.
 
 Per case: a header line (sparse backend, DOFs, elements, the verdict with the worst metric
 relative to its tolerance, run time), the metrics table with pass/fail, matplotlib figures
@@ -173,8 +174,8 @@ def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, pro
         rows = fig5_rows()
         fig5_png = figures.fig5_figure(rows)
         (root / "figures" / "fig5.png").write_bytes(fig5_png)
-        (root / "study_fig5.html").write_text(page("Study: paper Fig. 5", study_html(rows, fig5_png),
-                                                   links=False), encoding="utf-8")
+        html = page("Study: paper Fig. 5", study_html(rows, fig5_png), links=False)
+        (root / "study_fig5.html").write_text(html, encoding="utf-8")
         progress("study Fig. 5 written")
     summary = _summary(sections, studies, rows, time.perf_counter() - t0)
     _write_documents(root, sections, studies, conv_figs, want_fig5, summary)
