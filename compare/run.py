@@ -13,7 +13,9 @@ Metrics (all dimensionless; ``CaseResult.metrics`` is a flat dict of floats):
   error (metrics.SHEAR_FLOOR);
 - ``uncoupling_error``: max over stages 2-3 of ||p_fe(Q) - p_fe(0)|| / ||p_fe(0)||;
 - ``jc_error``: FE shear against mu [p_fe(P0) - p_fe(P*)] built from FE normal solutions;
-- ``zone_count_mismatch`` and ``full_slip_mismatches``: counts that must be 0.
+- ``zone_count_mismatch`` and ``full_slip_mismatches``: counts that must be 0;
+- ``stress_l2_error``, ``surface_peak_error``, ``surface_peak_location_error``: FE stresses of
+  body 2 against ``analytic.stress`` (``compare/stress.py``).
 
 NaN means "not applicable" (e.g. no tangential load) and is reported as n/a, never as pass
 of a real measurement.
@@ -33,6 +35,7 @@ from compare import metrics as mt
 from compare.analytic_side import AnalyticResult, StickState, solve_case
 from compare.cases import Case, load_case
 from compare.fem_side import Q_MERGE, kinks, run_fem
+from compare.stress import stress_metrics
 from compare.tolerances import METRIC_OF
 
 NAN = float("nan")
@@ -264,6 +267,7 @@ def evaluate(case: Case, an: AnalyticResult, hist: fem.FemHistory, jc_tol: float
     m.update(ms)
     m["uncoupling_error"] = uncoupling_error(hist)
     m["jc_error"] = jc_error(case, hist, keep, jc_tol)
+    m.update(stress_metrics(case, an, hist)[0])
     return m, zones, samples
 
 

@@ -24,6 +24,7 @@ from compare.cases import Case, load_case
 from compare.errors import CaseError
 from compare.external import ExternalResult, read_result
 from compare.run import CaseResult, checks_for, evaluate
+from compare.stress import STRESS_METRICS
 
 #: The result's loads may differ from the case's by this fraction of P (Q: of mu P; an applied
 #: M: of M): a displacement-driven run reaches the loads only approximately, and the analytic
@@ -139,6 +140,10 @@ def unavailable(case: Case, hist: fem.FemHistory, metrics: dict) -> dict:
         why["jc_error"] = ("needs stage-1 steps at the reduced loads P* = P0 - Q/mu (stage 2) or "
                            "P** = P0 - (Q0 - Q)/(2 mu) (stage 3) of its stage-2/3 steps; the "
                            f"result has none within {JC_PAIR_RTOL:g} P0")
+    if getattr(hist, "fields", None) is None:
+        applies = STRESS_METRICS if case.Q0 > 0 else STRESS_METRICS[:2]
+        for k in applies:
+            why[k] = "the result has interface data only (no body stresses)"
     if case.Q0 > 0 and not hist.stage(3):
         why["stage 3"] = "the result has no stage-3 steps: stick and shear cover stage 2 only"
     return why

@@ -1,4 +1,5 @@
-"""Verification report: ``DIR/index.html`` (self-contained), ``DIR/report.md``, ``DIR/summary.json``.
+"""Verification report: ``DIR/index.html`` (self-contained), ``DIR/report.md`` and
+``DIR/summary.json``.
 
 Per case: a header line (sparse backend, DOFs, elements, the verdict with the worst metric
 relative to its tolerance, run time), the metrics table with pass/fail, matplotlib figures
@@ -29,6 +30,7 @@ from compare.report import figures, region, zones
 from compare.report.fig5 import fig5_rows
 from compare.report.html import case_html, case_md, page, study_html, verdict_text
 from compare.report.render3d import render_bodies
+from compare.report.stress import stress_figures
 from compare.run import CaseResult, run_case
 
 #: The default suite of ``make run`` (each at its library FE level; about 1-2 minutes on 2 cores).
@@ -60,6 +62,7 @@ def _write_figs(sec: CaseSection, root: Path) -> None:
             "shear (stages 2 and 3), per zone": zones.shear_figure(res),
             "stick zones over the cycle": figures.stick_cycle_figure(res),
             "contact region: sigma_xx and interface status": region.region_figure(res)}
+    made.update(stress_figures(res))
     sec.figures = {k: v for k, v in made.items() if v is not None}
     fig_dir = root / "figures"
     fig_dir.mkdir(exist_ok=True)
@@ -171,8 +174,8 @@ def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, pro
         rows = fig5_rows()
         fig5_png = figures.fig5_figure(rows)
         (root / "figures" / "fig5.png").write_bytes(fig5_png)
-        (root / "study_fig5.html").write_text(page("Study: paper Fig. 5", study_html(rows, fig5_png),
-                                                   links=False), encoding="utf-8")
+        html = page("Study: paper Fig. 5", study_html(rows, fig5_png), links=False)
+        (root / "study_fig5.html").write_text(html, encoding="utf-8")
         progress("study Fig. 5 written")
     summary = _summary(sections, studies, rows, time.perf_counter() - t0)
     _write_documents(root, sections, studies, conv_figs, want_fig5, summary)
