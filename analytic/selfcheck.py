@@ -66,6 +66,12 @@ half; the kernel is log-singular there: delta to ~4e-10 A P on cylinders)."""
 KINK_DEPTH = 6
 """... and towards a kink, where p itself may be log-singular (a wedge apex: loads to 1e-11 P;
 4 levels left 6e-10 P)."""
+VERTICAL_DEPTH = 8
+"""... and towards an edge pinned at a vertical end (the end of a circular corner), where
+``p ~ (K + c ln d) d^(-1/2)`` is log-singular in u (loads off by 5e-7 P with 4 levels on the
+punch pinned at its arcs' ends).  The rest, ``d < delta = 4^-16`` of the half (~2e-10), is the
+closed form ``int_0^delta p = 2 delta p(delta) - 4 c sqrt(delta)`` (error ~delta^(3/2)): Gauss
+nodes there round in x (a node 1 ulp from the end put 5e-8 P into the load)."""
 FINEST = 1e-11
 """Innermost panel at least this times |x|: its nodes stay ~1e-12 |x| from the point (p itself
 is not computable closer to a kink, where x rounds)."""
@@ -80,6 +86,9 @@ class Rule:
     x: np.ndarray
     w: np.ndarray
     zone: np.ndarray
+    tails: tuple[tuple[float, float, float, int], ...] = ()
+    """(end, delta, direction, zone) of every half whose part ``d < delta`` at a vertical end
+    is left to the closed form (:func:`with_tails`)."""
 
 
 @lru_cache(maxsize=8)
@@ -100,42 +109,76 @@ def _graded_reference(depth: int, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def graded_half(end: float, length: float, direction: float, finest: float,
-                n: int = PANEL_NODES) -> tuple[np.ndarray, np.ndarray]:
+                n: int = PANEL_NODES, tail: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Nodes and weights on ``[end, end + direction length]`` after ``t = length u^2``: an edge
     factor ``t^(+-1/2)`` times ``dt = 2 length u du`` is smooth in u, a log singularity becomes
     ``u ln u``.  Gauss-Legendre panels of n nodes in u shrink geometrically towards ``u = 0``
-    until the innermost is at most ``sqrt(finest / length)`` (``finest`` in x)."""
-    u_min = math.sqrt(max(finest, 1e-300) / length)
-    depth = max(1, math.ceil(-math.log(min(u_min, 1.0)) / math.log(GRADING)))
-    t, w = _graded_reference(depth, n)
+    until the innermost is at most ``sqrt(finest / length)`` (``finest`` in x); ``tail``:
+    without the innermost panel (``t < length GRADING^(-2 depth)``)."""
+    t, w = _graded_reference(graded_depth(length, finest), n)
+    if tail:
+        t, w = t[:-n], w[:-n]
     return end + direction * length * t, length * w
 
 
+def graded_depth(length: float, finest: float) -> int:
+    """Levels of :func:`graded_half` for its innermost panel to reach ``finest``."""
+    u_min = math.sqrt(max(finest, 1e-300) / length)
+    return max(1, math.ceil(-math.log(min(u_min, 1.0)) / math.log(GRADING)))
+
+
 def zone_rule(zones: list[tuple[float, float]], cuts: list[list[float]],
-              kinks: list[list[float]], span: float) -> Rule:
+              kinks: list[list[float]], span: float, vertical: tuple[float, ...] = (),
+              marks: tuple[float, ...] = ()) -> Rule:
     """The graded rule on every zone cut at ``cuts[k]`` (kinks and targets inside zone k), each
-    piece halved, each half graded towards its end (deeper at the ``kinks``)."""
-    xs, ws, zs = [], [], []
+    piece halved, each half graded towards its end (deeper at the ``kinks`` and at edges on a
+    ``vertical`` end of the profile; towards an edge as deep as the nearest zone or profile
+    ``marks`` beyond it)."""
+    xs, ws, zs, tails = [], [], [], []
     for k, (a, b) in enumerate(zones):
         pts = [a, *cuts[k], b]
-        outside = _outside_clearance(zones, k, span)
+        outside = _outside_clearance(zones, k, span, marks)
         n = KINKED_PANEL_NODES if kinks[k] else PANEL_NODES
         for i in range(len(pts) - 1):
             half = 0.5 * (pts[i + 1] - pts[i])
             for j, direction in ((i, 1.0), (i + 1, -1.0)):
-                depth = KINK_DEPTH if pts[j] in kinks[k] else LOG_DEPTH
-                x, w = graded_half(pts[j], half, direction,
-                                   _finest(pts, j, half, outside, depth), n)
+                at_end = pts[j] in vertical and j in (0, len(pts) - 1)
+                depth = (VERTICAL_DEPTH if at_end else
+                         KINK_DEPTH if pts[j] in kinks[k] else LOG_DEPTH)
+                finest = _finest(pts, j, half, outside, depth)
+                x, w = graded_half(pts[j], half, direction, finest, n, at_end)
+                if at_end:
+                    delta = half * GRADING ** (-2 * graded_depth(half, finest))
+                    tails.append((pts[j], delta, direction, k))
                 xs.append(x)
                 ws.append(w)
                 zs.append(np.full(x.size, k))
-    return Rule(np.concatenate(xs), np.concatenate(ws), np.concatenate(zs))
+    return Rule(np.concatenate(xs), np.concatenate(ws), np.concatenate(zs), tuple(tails))
 
 
-def _outside_clearance(zones: list[tuple[float, float]], k: int, span: float) -> float:
-    """Distance from zone k to the nearest other zone (the span for a single zone)."""
+def with_tails(rule: Rule, profile: Profile, A: float) -> tuple[Rule, np.ndarray]:
+    """The rule with one node at ``end + delta`` per tail (weight ``2 delta``) and the constants
+    ``-4 c sqrt(delta)`` (``c = kappa / (pi A)``) that complete ``int_0^delta p``: with
+    ``p = (K + c ln d) d^(-1/2)`` that integral is ``2 delta p(delta) - 4 c sqrt(delta)``."""
+    if not rule.tails:
+        return rule, np.zeros(rule.x.size)
+    end, delta, direction, zone = (np.array(v) for v in zip(*rule.tails, strict=True))
+    c = np.array([profile.vertical_strength(e) for e in end.tolist()]) / (np.pi * A)
+    x = np.concatenate([rule.x, end + direction * delta])
+    w = np.concatenate([rule.w, 2.0 * delta])
+    const = np.concatenate([np.zeros(rule.x.size), -4.0 * c * np.sqrt(delta)])
+    return Rule(x, w, np.concatenate([rule.zone, zone.astype(int)])), const
+
+
+def _outside_clearance(zones: list[tuple[float, float]], k: int, span: float,
+                       marks: tuple[float, ...] = ()) -> float:
+    """Distance from zone k to the nearest other zone (the span for a single zone) or profile
+    mark (kink or corner) outside it: p varies on that scale at the edge (a rounded punch's
+    edge 1e-8 short of its arc's end: loads 1.5e-8 P off when graded to the span only)."""
+    a, b = zones[k]
     d = [zones[k][0] - zones[k - 1][1]] if k > 0 else []
     d += [zones[k + 1][0] - zones[k][1]] if k + 1 < len(zones) else []
+    d += [a - q for q in marks if q < a] + [q - b for q in marks if q > b]
     return min(d) if d else span
 
 
@@ -164,12 +207,12 @@ def approach_targets(zones: list[tuple[float, float]], singular: list[tuple[bool
     return out
 
 
-def log_potential(rule: Rule, p: np.ndarray, x: np.ndarray, A: float) -> np.ndarray:
+def log_potential(rule: Rule, wp: np.ndarray, x: np.ndarray, A: float) -> np.ndarray:
     """``u(x) = -(A/pi) int p(s) ln|x - s| ds`` by the rule.  A node that rounds onto its
     target (zones a few ulps wide) has a negligible weight; its distance is floored at an ulp."""
     ulp = 4 * np.finfo(float).eps * np.maximum(np.abs(x), np.max(np.abs(rule.x)))
     kernel = np.log(np.maximum(np.abs(x[:, None] - rule.x[None, :]), ulp[:, None]))
-    return -(A / np.pi) * (kernel @ (rule.w * p))
+    return -(A / np.pi) * (kernel @ wp)
 
 
 def gap_points(zones: list[tuple[float, float]], profile: Profile, span: float) -> np.ndarray:
@@ -232,10 +275,13 @@ def check_normal(profile: Profile, zones: list[tuple[float, float]],
     kinks = _inner_marks(profile, zones)
     targets = approach_targets(zones, singular, kinks)
     rule = zone_rule(zones, [[t for t in ts if a < t < b] for ts, (a, b) in
-                             zip(targets, zones, strict=True)], kinks, span)
+                             zip(targets, zones, strict=True)], kinks, span,
+                     profile.vertical_ends, (*profile.kinks, *profile.corners))
     _check_topology(profile, zones, singular, rule)
+    rule, const = with_tails(rule, profile, A)
     p = pressure(rule.x)
-    figs = _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, targets, span)
+    figs = _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, const, targets, span,
+                    _log_terms(profile, zones, singular, kinks, A, rule.x))
     bad = _failures(figs, SPLINE_FACTOR if _has_splines(profile) else 1.0)
     if bad:
         raise ConvergenceError(f"the self-check of the solution failed: {', '.join(bad)}",
@@ -243,19 +289,43 @@ def check_normal(profile: Profile, zones: list[tuple[float, float]],
     return figs
 
 
-def _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, targets, span) -> Figures:
-    per_zone = np.bincount(rule.zone, rule.w * p, minlength=len(zones))
+def _log_terms(profile: Profile, zones: list[tuple[float, float]],
+               singular: list[tuple[bool, bool]], kinks: list[list[float]], A: float,
+               x: np.ndarray) -> np.ndarray:
+    """The log term ``c ln(d / l) d^(-1/2)``, ``c = kappa / (pi A)``, of the pressure a distance
+    ``d < l`` inside an edge pinned at a vertical end (``h0' ~ kappa d^(-1/2)``; l the distance
+    to the nearest kink or edge of the zone), zero elsewhere.  In half-plane theory it leaves a
+    tensile sliver ``d < l exp(-K/c)`` (K the stress intensity) that the small-slope model cannot
+    resolve; p >= 0 is checked on ``p - log term`` (i.e. K >= 0, the sliver inside l)."""
+    out = np.zeros_like(x)
+    for (a, b), sing, ks in zip(zones, singular, kinks, strict=True):
+        for end, s, cut in ((a, sing[0], min([*ks, b])), (b, sing[1], max([a, *ks]))):
+            if not (s and end in profile.vertical_ends):
+                continue
+            ell = abs(cut - end)
+            d = np.where((x - end) * (cut - end) > 0, np.abs(x - end), np.inf)
+            c = profile.vertical_strength(end) / (np.pi * A)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out += np.where(d < ell, c * np.log(d / ell) / np.sqrt(d), 0.0)
+    return out
+
+
+def _figures(profile, zones, zone_loads, P, M, theta, A, rule, p, const, targets, span,
+             log_terms) -> Figures:
+    """``const``: per node, added to ``w p`` (the closed-form tails at vertical ends)."""
+    wp = rule.w * p + const
+    per_zone = np.bincount(rule.zone, wp, minlength=len(zones))
     load = max(np.max(np.abs(per_zone - np.asarray(zone_loads))), abs(per_zone.sum() - P)) / P
     arm = max(abs(zones[0][0]), abs(zones[-1][1]))
-    moment = 0.0 if M is None else abs(np.sum(rule.w * p * rule.x) - M) / (P * arm)
+    moment = 0.0 if M is None else abs(np.sum(wp * rule.x) - M) / (P * arm)
     xt = np.concatenate([np.asarray(t, float) for t in targets])
-    delta = _h_zone_side(profile, zones, targets) - theta * xt + log_potential(rule, p, xt, A)
+    delta = _h_zone_side(profile, zones, targets) - theta * xt + log_potential(rule, wp, xt, A)
     ref = 0.5 * (delta.max() + delta.min())
     xo = gap_points(zones, profile, span)
-    g = profile.h0(xo) - theta * xo - ref + log_potential(rule, p, xo, A)
+    g = profile.h0(xo) - theta * xo - ref + log_potential(rule, wp, xo, A)
     mean_p = P / sum(b - a for a, b in zones)
     return Figures(float(load), float(moment), float(np.ptp(delta) / (A * P)),
-                   float(min(np.min(p) / mean_p, 0.0)),
+                   float(min(np.min(p - log_terms) / mean_p, 0.0)),
                    float(min(np.min(g, initial=0.0) / (A * P), 0.0)), int(rule.x.size))
 
 

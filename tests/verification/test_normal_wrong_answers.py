@@ -71,7 +71,7 @@ def test_parabolic_corner_pressure_matches_the_inversion(P: float) -> None:
     xs = np.concatenate([np.linspace(B_PAR, a, 9)[1:-1], [0.0, 0.5 * B_PAR]])  # peak beyond b
     ref = np.array([inversion_pressure(prof, x, a, 1.0) for x in xs])
     assert np.max(np.abs(sol.pressure(xs) - ref)) < PRESSURE_TOL * np.max(ref)
-    total = quad(lambda x: float(sol.pressure(x)[0]), -a, a, points=[-B_PAR, B_PAR],
+    total = quad(lambda x: float(sol.pressure(x)), -a, a, points=[-B_PAR, B_PAR],
                  limit=400, epsabs=0.0, epsrel=1e-12)[0]
     assert abs(total - P) < LOAD_QUAD_TOL * P
 
