@@ -24,6 +24,7 @@ from analytic._sie import Batch, Layout, System
 from analytic._vectorise import elementwise
 from analytic.errors import ConvergenceError, InputError
 from analytic.profiles import Profile
+from analytic.selfcheck import check_normal, h0_steps
 
 NEWTON_TOL = 1e-13          # scaled residual; edges then agree to ~1e-12 relative
 NEWTON_MAXIT = 40
@@ -60,7 +61,9 @@ class NormalSolution:
     mode : ``"vertical"`` (rotation locked, M output) or ``"moment"`` (M given, theta output).
     A : composite compliance ``4 (1 - nu^2)/E``.
     residuals : the scaled residuals of the equations solved and the self-checks (equilibrium
-        from the integrated pressure, min pressure, min gap).
+        from the integrated pressure, min pressure, min gap), and the figures of the independent
+        check of :mod:`analytic.selfcheck` (``selfcheck_*``: zone loads, moment, spread of the
+        rigid approach, min p, min gap, from ``pressure(x)`` and h0 only).
     """
 
     zones: list[tuple[float, float]]
@@ -217,7 +220,9 @@ def _rows(batch: Batch, st: _State, mode: _Mode) -> np.ndarray:
 
 def _feasible(st: _State, profile: Profile) -> bool:
     """Edges finite, strictly increasing, inside the support, free edges where h0 is finite,
-    and no zone spanning a ridge (scalar checks: this runs at every trial point)."""
+    and no zone spanning a ridge or a corner where h0 steps (a sharp punch beside a cylinder:
+    a released corner edge crossed onto the cylinder's flank, 13 higher; scalar checks: this
+    runs at every trial point)."""
     e = st.layout.edges.tolist()
     tol = 1e-14 * st.ell
     if not all(math.isfinite(v) for v in e) or \
@@ -230,7 +235,9 @@ def _feasible(st: _State, profile: Profile) -> bool:
         inner = profile.h0(st.layout.edges[~st.layout.pinned])
         if not np.all(np.isfinite(inner)):
             return False
-    return not any(a < q < b for q in profile.ridges for a, b in zip(e[::2], e[1::2], strict=True))
+    inside = [q for q in (*profile.ridges, *profile.corners)
+              if any(a < q < b for a, b in zip(e[::2], e[1::2], strict=True))]
+    return not any(q in profile.ridges or h0_steps(profile, q) for q in inside)
 
 
 class _NewtonFailed(Exception):
@@ -612,7 +619,7 @@ def _refined_minima(sys_: System, x: np.ndarray, profile: Profile) -> np.ndarray
 
 @dataclass(frozen=True)
 class _Event:
-    kind: str       # "add", "merge", "grow", "split", "shrink", "release", "pin"
+    kind: str       # "add", "merge", "grow", "split", "shrink", "release", "pin", "reseed"
     where: float
     index: int = -1
     interval: tuple[float, float] | None = None
@@ -808,7 +815,11 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         except _NewtonFailed as exc:
             pinned = _pin_nearest(st, profile, A, PIN_DISTANCE * st.layout.edge_widths())
             if pinned is None:
-                raise _StepFailed(str(exc)) from exc
+                st = _shrunk_new_zone(st, history, A)
+                if st is None:
+                    raise _StepFailed(str(exc)) from exc
+                history.append(_Event("reseed", history[-1].where))
+                continue
             history.append(_Event("pin", pinned[1]))
             st = pinned[0]
             continue
@@ -826,6 +837,29 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
         st = _apply_event(st, ev, sys_, profile)
         st.beta = _beta_for(st, A, st.P)
     raise _StepFailed(f"topology did not settle: {history}")
+
+
+RESEED_FRACTION = 0.25  # a new zone Newton failed from restarts at this part of its seed
+
+
+def _shrunk_new_zone(st: _State, history: list[_Event], A: float) -> _State | None:
+    """After a failed Newton solve from a zone just added on its overlap interval, the same
+    state with that zone shrunk towards the deepest overlap to RESEED_FRACTION of the interval
+    (just after a zone's birth the zone is several times narrower than its overlap: a birth load
+    of two cylinders failed with "continuation stalled" while loads 1e-14 off solved; a zone
+    born at a double wedge's apex, audit seed 178); else None."""
+    if not history or history[-1].kind != "add" or history[-1].interval is None:
+        return None
+    lo, hi = history[-1].interval
+    e = st.layout.edges.copy()
+    k = np.flatnonzero((e[:-1] == lo) & (e[1:] == hi))
+    if not k.size:
+        return None
+    c = history[-1].where  # the deepest overlap (a wedge's apex: not the interval's middle)
+    e[k[0]], e[k[0] + 1] = c - RESEED_FRACTION * (c - lo), c + RESEED_FRACTION * (hi - c)
+    new = _fresh_state(Layout(e, st.layout.pinned), st.theta, st.P)
+    new.beta = _beta_for(new, A, st.P)
+    return new
 
 
 def _check_cycle(layout: Layout, starts: set[bytes], history: list[_Event]) -> None:
@@ -967,7 +1001,7 @@ def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
     from analytic._moment import solve_with_moment
 
     st, sys_ = solve_with_moment(profile, P, A, float(M))
-    return _finish(st, sys_, profile, A, "moment")
+    return _finish(st, sys_, profile, A, "moment", float(M))
 
 
 def _solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[_State, System]:
@@ -1027,7 +1061,10 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     return out  # type: ignore[return-value]
 
 
-def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> NormalSolution:
+def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str,
+            M_target: float | None = None) -> NormalSolution:
+    """The solution, checked by :func:`analytic.selfcheck.check_normal` (its figures join the
+    residuals; ``M_target``: the applied moment, checked against ``int x p dx``)."""
     zl = zone_loads(sys_)
     P_calc, M_calc = sys_.load_and_moment()
     F = st.F if st.F is not None else _residual(st, _Mode(st.P, None), profile, A)[0]
@@ -1041,8 +1078,12 @@ def _finish(st: _State, sys_: System, profile: Profile, A: float, mode: str) -> 
         **checks,
     }
     singular = [tuple(bool(v) for v in pr) for pr in st.layout.pinned.reshape(-1, 2)]
-    return NormalSolution(st.layout.zones(), singular, zl, st.P, M_calc, st.theta, mode, A,
-                          res, profile, sys_)
+    sol = NormalSolution(st.layout.zones(), singular, zl, st.P, M_calc, st.theta, mode, A,
+                         res, profile, sys_)
+    figs = check_normal(profile, sol.zones, singular, zl, st.P, M_target, st.theta, A,
+                        sol.pressure)
+    res.update(figs.as_residuals())
+    return sol
 
 
 # ---------------------------------------------------------------------------------------------

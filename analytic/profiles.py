@@ -12,6 +12,7 @@ Units: lengths in any consistent unit, ``h0`` in the same unit, slopes dimension
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -137,6 +138,32 @@ class Profile:
             if np.isfinite(left) and np.isfinite(right) and right < left:
                 out.append(q)
         return tuple(out)
+
+    @cached_property
+    def vertical_ends(self) -> tuple[float, ...]:
+        """Corners where the slope of the piece ending there is infinite (the end of a circular
+        corner: ``h0' ~ kappa d^(-1/2)`` a distance d inside).  The pressure of an edge pinned
+        there has a term ``kappa ln(d) / (pi A sqrt(d))`` (docs/analytic.md)."""
+        out = []
+        for q in self.corners:
+            for pc in self.pieces:
+                if q in (pc.lo, pc.hi):
+                    with np.errstate(divide="ignore", invalid="ignore"):
+                        slope = pc.dh(np.array([q], float))[0]
+                    if not np.isfinite(slope):
+                        out.append(q)
+                        break
+        return tuple(out)
+
+    def vertical_strength(self, q: float) -> float:
+        """``kappa = lim sqrt(d) |h0'|`` a distance d inside the vertical end q (from the piece
+        at 1e-8 of its length: the piece is smooth in sqrt(d), the limit to ~1e-8)."""
+        for pc in self.pieces:
+            if q in (pc.lo, pc.hi):
+                d = 1e-8 * (pc.hi - pc.lo)
+                x = q + d if q == pc.lo else q - d
+                return float(math.sqrt(d) * abs(pc.dh(np.array([x]))[0]))
+        raise ValueError(f"{q!r} is not the end of a piece")
 
     @cached_property
     def pin_points(self) -> tuple[float, ...]:
@@ -281,19 +308,25 @@ def _finite_coeffs(name: str, value: float, coeffs: Sequence[float]) -> None:
                            f"(got {[float(c) for c in coeffs]})")
 
 
-def _poly_piece(coeffs: Sequence[float], lo: float, hi: float, flat: bool = False) -> Piece:
-    """Piece from a polynomial (highest power first); its continuation is global."""
+def _poly_piece(coeffs: Sequence[float], lo: float, hi: float, flat: bool = False,
+                shift: float = 0.0) -> Piece:
+    """Piece from a polynomial in ``x - shift`` (highest power first); its continuation is
+    global.  Centred at its vertex or apex, h0 rounds relative to itself, not to the expanded
+    terms (``(x - c)^2 / 2R`` expanded rounds by eps c^2 / R: 5e-5 of A P at A P = 1e-12)."""
     c = np.poly1d(coeffs)
-    h, d1, d2 = (_horner(q.coeffs) for q in (c, c.deriv(1), c.deriv(2)))
+    h, d1, d2 = (_horner(q.coeffs, shift) for q in (c, c.deriv(1), c.deriv(2)))
     return Piece(lo, hi, h, d1, d2, (-INF, INF), flat)
 
 
-def _horner(coeffs: Sequence[float]) -> Func:
-    """Vectorised polynomial (highest power first) by Horner's rule, in place (hot path)."""
+def _horner(coeffs: Sequence[float], shift: float = 0.0) -> Func:
+    """Vectorised polynomial in ``x - shift`` (highest power first) by Horner's rule, in place
+    (hot path)."""
     head, *rest = (float(v) for v in coeffs)
 
     def value(x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float)
+        if shift != 0.0 and rest:
+            x = x - shift
         y = np.full(x.shape, head)
         for v in rest:
             y *= x
@@ -305,7 +338,7 @@ def _horner(coeffs: Sequence[float]) -> Func:
 
 def _line(slope: float, x0: float, lo: float, hi: float) -> Piece:
     """``h = slope (x - x0)`` on ``[lo, hi]``."""
-    return _poly_piece([slope, -slope * x0], lo, hi, flat=(slope == 0.0))
+    return _poly_piece([slope, 0.0], lo, hi, flat=(slope == 0.0), shift=x0)
 
 
 def cylinder(R: float, center: float = 0.0, lift: float = 0.0) -> Profile:
@@ -314,14 +347,15 @@ def cylinder(R: float, center: float = 0.0, lift: float = 0.0) -> Profile:
     with np.errstate(all="ignore"):  # an overflow is refused just below
         coeffs = [0.5 / R, -center / R, np.float64(center)**2 / (2 * R) + lift]
     _finite_coeffs("center", center, coeffs)
-    pc = _poly_piece(coeffs, -INF, INF)
+    pc = _poly_piece([0.5 / R, 0.0, lift], -INF, INF, shift=center)
     return Profile((pc,), (), (), R, "cylinder", {"R": R, "center": center, "lift": lift})
 
 
 def _arc(rho: float, x_tan: float, side: int, lo: float, hi: float, lift: float) -> Piece:
     """Circular corner of radius ``rho`` tangent to the flat face at ``x_tan``."""
-    def h(x):
-        return lift + rho - np.sqrt(np.maximum(rho**2 - (x - x_tan) ** 2, 0.0))
+    def h(x):  # rho - sqrt(rho^2 - t^2) without cancellation (it rounded by eps rho)
+        t2 = (x - x_tan) ** 2
+        return lift + t2 / (rho + np.sqrt(np.maximum(rho**2 - t2, 0.0)))
 
     def dh(x):
         return (x - x_tan) / np.sqrt(rho**2 - (x - x_tan) ** 2)
@@ -360,7 +394,8 @@ def flat_punch(left: float, right: float, corner_radius: float = 0.0, lift: floa
             cl = [0.5 / rho, -left / rho, np.float64(left)**2 / (2 * rho) + lift]
             cr = [0.5 / rho, -right / rho, np.float64(right)**2 / (2 * rho) + lift]
         _finite_coeffs("corner_radius", corner_radius, cl + cr)
-        lp, rp = _poly_piece(cl, -INF, left), _poly_piece(cr, right, INF)
+        lp = _poly_piece([0.5 / rho, 0.0, lift], -INF, left, shift=left)
+        rp = _poly_piece([0.5 / rho, 0.0, lift], right, INF, shift=right)
     else:
         lp = _arc(rho, left, -1, left - rho, left, lift)
         rp = _arc(rho, right, +1, right, right + rho, lift)
@@ -376,9 +411,9 @@ def wedge(angle_left: float, angle_right: float, apex: float = 0.0, lift: float 
         "angle_right", angle_right)
     apex, lift = check.real("apex", apex), check.real("lift", lift)
     tl, tr = np.tan(angle_left), np.tan(angle_right)
-    pl = _poly_piece([-tl, tl * apex + lift], -INF, apex)
     _finite_coeffs("apex", apex, [tl * apex + lift, -tr * apex + lift])
-    pr = _poly_piece([tr, -tr * apex + lift], apex, INF)
+    pl = _poly_piece([-tl, lift], -INF, apex, shift=apex)
+    pr = _poly_piece([tr, lift], apex, INF, shift=apex)
     return Profile((pl, pr), (), (apex,), 1.0, "wedge",
                    {"angle_left": angle_left, "angle_right": angle_right, "apex": apex,
                     "lift": lift})

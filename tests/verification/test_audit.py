@@ -69,16 +69,14 @@ ISSUE_CASES = [
         ("cylinder", {"R": 2.09162665941828, "center": 2.9514705388119507})]}),
         2.538619387584285e-4, 1.0, None, "vertical", None, None, None, (-B0, B0)),
 ]
-"""Issue 13's three wrong answers as audit cases: the audit flags each on the solver of
+"""Issue 13's three wrong answers as audit cases: the audit flagged each on the solver of
 0616e17 (load_quadrature; rigid_approach and gap_consistency; every quadrature check and
-bem_loads)."""
+bem_loads); fixed, they pass."""
 
 
-@pytest.mark.parametrize("case", [
-    pytest.param(c, id=f"wrong_answer_{-c.seed}",
-                 marks=pytest.mark.xfail(strict=True, reason="issue 13 wrong answer, open"))
-    for c in ISSUE_CASES])
-def test_audit_flags_the_issue_wrong_answers(case: AuditCase) -> None:
+@pytest.mark.parametrize("case", [pytest.param(c, id=f"wrong_answer_{-c.seed}")
+                                  for c in ISSUE_CASES])
+def test_audit_passes_the_issue_wrong_answers(case: AuditCase) -> None:
     _assert_agrees(run.audit_case(case))
 
 
