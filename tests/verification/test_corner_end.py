@@ -1,12 +1,14 @@
 """The end of a circular corner as a topology event (issue 18).
 
 A flat punch with quarter-circle corners (face [-1, 1], radius 0.5) has ``h0 = +inf`` beyond
-x = +-1.5, where the arcs end.  Under increasing load the contact edges run out along the arcs
-and reach their ends at P* ~ 8.47 (A = 1); beyond it they stay there as singular edges
-(complete contact, ``Profile.corners`` holds the arc ends).  Checks: the edges approach the
-ends continuously, the pinned states obey the flat-punch closed form for load increments
-(exact for fixed edges), tend to the sharp punch of half-width 1.5 as P grows, agree with the
-BEM, and an edge is released again where the tilt unloads it.
+x = +-1.5, where the arcs end.  Under increasing load the contact edges run out along the arcs;
+the arc's slope ``d^(-1/2)`` just beyond a free edge makes its load grow only like -ln d, so the
+edges approach the ends logarithmically (checked against an independent quadrature of the
+bounded solution's load) and pin there once d is below resolution; beyond, they stay there as
+singular edges (complete contact, ``Profile.corners`` holds the arc ends).  Checks: the
+approach, the pinned states obey the flat-punch closed form for load increments (exact for fixed
+edges), tend to the sharp punch of half-width 1.5 as P grows, agree with the BEM, and an edge is
+released again where the tilt unloads it.
 """
 
 from __future__ import annotations
