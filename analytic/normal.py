@@ -823,7 +823,9 @@ def _converge(st: _State, profile: Profile, A: float, M: float | None) -> tuple[
             history.append(_Event("pin", pinned[1]))
             st = pinned[0]
             continue
-        landed = _pin_nearest(st, profile, A, np.full(st.layout.edges.size, 1e-10 * st.ell))
+        landed = _pin_nearest(st, profile, A, np.full(st.layout.edges.size, 1e-10 * st.ell)) \
+            or _pin_nearest(st, profile, A, np.full(st.layout.edges.size, VERTICAL_LANDING
+                                                    * st.ell), profile.vertical_ends)
         if landed is not None:  # a free edge converged onto a corner: re-solve it as singular
             history.append(_Event("pin", landed[1]))
             st = landed[0]
@@ -890,16 +892,20 @@ def _shift_poly(beta: np.ndarray, d: float) -> np.ndarray:
 
 
 PIN_DISTANCE = 0.05  # a free edge this close to a corner (fraction of its zone) may pin there
+VERTICAL_LANDING = 3e-9
+"""A free edge converged this close (x span) to a vertical end pins there: its load grows only
+like -ln d, so below ~1e-9 span it is rounding-limited (the face +-1, radius 0.5 punch at d =
+5e-10: int p off the zone load by 2e-8 P) while the pinned state differs only within d."""
 
 
-def _pin_nearest(st: _State, profile: Profile, A: float, limits: np.ndarray
-                 ) -> tuple[_State, float] | None:
-    """The free edge nearest a pin point (corner or ridge), if within its limit, becomes
-    singular there: the new (unsolved) state and the pin position, or None."""
+def _pin_nearest(st: _State, profile: Profile, A: float, limits: np.ndarray,
+                 points: tuple[float, ...] | None = None) -> tuple[_State, float] | None:
+    """The free edge nearest a pin point (corner or ridge; or one of ``points``), if within its
+    limit, becomes singular there: the new (unsolved) state and the pin position, or None."""
     e, pinned = st.layout.edges.copy(), st.layout.pinned.copy()
     best = None
     for i in np.flatnonzero(~pinned):
-        for c in profile.pin_points:
+        for c in profile.pin_points if points is None else points:
             d = abs(e[i] - c)
             if d <= limits[i] and (best is None or d < best[0]):
                 best = (d, i, c)

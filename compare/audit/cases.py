@@ -115,7 +115,7 @@ def make_case(seed: int) -> AuditCase:
     spec, P, core = _FAMILY_MAKERS[family](rng, seed)
     mode = str(rng.choice(MODES, p=MODE_WEIGHTS))
     moment = mode == "moment" or (mode != "vertical" and rng.random() < 0.5)
-    M = P * _pressure_centre(rng, core) if moment else None
+    M = float(P * _pressure_centre(rng, core)) if moment else None
     mu, Q, Q0 = _tangential(rng, mode, P)
     return AuditCase(int(seed), family, spec, float(P), A, M, mode, mu, Q, Q0, core)
 

@@ -194,3 +194,10 @@ def test_the_script_writes_the_table(tmp_path: Path) -> None:
     assert not list(tmp_path.glob(".audit*"))  # no temporary files left
     with pytest.raises(SystemExit):
         module.main(["--n", "0"])
+
+
+def test_a_solver_error_without_a_reference_is_inconclusive(monkeypatch) -> None:
+    monkeypatch.setattr(analytic, "solve_normal", _raise(analytic.ConvergenceError("stalled")))
+    monkeypatch.setattr(bem, "solve_normal_bem", _raise(RuntimeError("active set cycles")))
+    result = run.audit_case(cases.make_case(2))
+    assert result.classes == ("no_reference",) and not result.disagrees

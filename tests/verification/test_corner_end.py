@@ -1,12 +1,14 @@
 """The end of a circular corner as a topology event (issue 18).
 
 A flat punch with quarter-circle corners (face [-1, 1], radius 0.5) has ``h0 = +inf`` beyond
-x = +-1.5, where the arcs end.  Under increasing load the contact edges run out along the arcs
-and reach their ends at P* ~ 8.47 (A = 1); beyond it they stay there as singular edges
-(complete contact, ``Profile.corners`` holds the arc ends).  Checks: the edges approach the
-ends continuously, the pinned states obey the flat-punch closed form for load increments
-(exact for fixed edges), tend to the sharp punch of half-width 1.5 as P grows, agree with the
-BEM, and an edge is released again where the tilt unloads it.
+x = +-1.5, where the arcs end.  Under increasing load the contact edges run out along the arcs;
+the arc's slope ``d^(-1/2)`` just beyond a free edge makes its load grow only like -ln d, so the
+edges approach the ends logarithmically (checked against an independent quadrature of the
+bounded solution's load) and pin there once d is below resolution; beyond, they stay there as
+singular edges (complete contact, ``Profile.corners`` holds the arc ends).  Checks: the
+approach, the pinned states obey the flat-punch closed form for load increments (exact for fixed
+edges), tend to the sharp punch of half-width 1.5 as P grows, agree with the BEM, and an edge is
+released again where the tilt unloads it.
 """
 
 from __future__ import annotations
@@ -92,8 +94,9 @@ def bounded_load(a: float) -> float:
 def test_edges_approach_the_arc_ends_logarithmically(punch) -> None:
     """A free edge a distance d short of the arc's end carries ``P ~ C0 - C1 ln d`` (the arc's
     slope ``d^(-1/2)`` just beyond it): it reaches the end only in the limit (d = 7e-5 at
-    P = 8, 7e-9 at P = 16), and pins there once d is below what the edge resolves."""
-    loads = [8.0, 9.0, 12.0, 16.0, 20.0, 25.0]
+    P = 8, 7e-8 at P = 15), and pins there once d is below 3e-9 of the span (P ~ 16.5), where
+    its load is rounding-limited (``normal.VERTICAL_LANDING``)."""
+    loads = [8.0, 9.0, 12.0, 15.0, 20.0, 25.0]
     curve = analytic.load_curve(punch, loads, A)
     free = [s for s in curve if s.singular == [(False, False)]]
     pinned = [s for s in curve if s.singular == [(True, True)]]
@@ -108,6 +111,18 @@ def test_edges_approach_the_arc_ends_logarithmically(punch) -> None:
     p_below, p_above = free[-1].pressure(inner), pinned[0].pressure(inner)
     dP = pinned[0].P - free[-1].P
     assert np.max(np.abs(p_above - p_below)) < 10 * sharp(dP, inner).max() + 1e-6
+
+
+def test_every_load_and_moment_across_the_pinning_solves(punch) -> None:
+    """Across the event the free edge is 1e-8 .. 1e-10 of the span short of the end, where its
+    load is rounding-limited (the self-check refused P = 18.3 and M = 5 before the landing
+    rule): every load solves, free below and pinned above one load, and moments too."""
+    loads = np.geomspace(8.0, 60.0, 20)
+    pinned = [analytic.solve_normal(punch, P, A).singular == [(True, True)] for P in loads]
+    assert pinned == sorted(pinned) and pinned[-1] and not pinned[0]
+    for M in (2.0, 5.0, 10.0):
+        sol = analytic.solve_normal(punch, 25.0, A, M=M)
+        assert sol.zones[0][1] == B and sol.singular[0][1]
 
 
 def test_tilt_releases_one_arc_end(punch) -> None:
