@@ -444,6 +444,10 @@ def cauchy_sums(sq: SQuad, xh: np.ndarray, H: np.ndarray,
 
 
 FAR_NODES = 48
+SUBTRACT_REACH = 2.0
+"""Interconnection integrals subtract the edge piece's slope in B (near-singular at the edge)
+only up to this many widths of the edge's zone: farther, the zone rule (sized for points a
+clearance away) resolves ``B`` without it."""
 GAP_CHUNK = 32  # targets per batch of gap integrals (a plan's maps are dense: parts x nodes)
 
 
@@ -460,6 +464,8 @@ class GapPlan:
     then Gauss-Legendre on sub-intervals growing geometrically (ratio GRADING) up to ``L`` with
     ``t^eps`` folded into the weights; the edge piece's continuation is the subtraction value.
     Beyond ``L`` (half-way to the end of that continuation): plain Gauss-Legendre, ``H = 0``.
+    A part may also drop the subtraction (``H = 0``) from the ``switch``-th graded boundary
+    ``f GRADING^switch`` on (see :meth:`Batch.gap_plan`), so its sum there is ``int w'``.
     """
 
     edge: np.ndarray        # (parts,) edge index
@@ -477,6 +483,7 @@ class GapPlan:
     groups: tuple           # (piece, node indices) of the graded nodes, per piece
     sums: np.ndarray        # (nodes, parts) indicator: which integral each node adds to
     n_edges: int            # 2n
+    switch: np.ndarray      # (parts,) graded boundary where H drops to 0, -1: never
 
     @cached_property
     def maps(self) -> np.ndarray:
@@ -518,12 +525,12 @@ def _graded_part(n_first: int, n_graded: int) -> list[tuple]:
 
 @lru_cache(maxsize=256)
 def _gap_plan(structure: tuple, pinned: tuple) -> GapPlan:
-    """The plan of the integrals ``(edge, direction, eps, piece, n_first, n_graded, far)`` for
-    edges with the singular flags ``pinned``."""
-    cols: dict[str, list] = {k: [] for k in ("part", "own", "a", "c", "b", "ex", "w")}
+    """The plan of the integrals ``(edge, direction, eps, piece, n_first, n_graded, far,
+    switch)`` for edges with the singular flags ``pinned``."""
+    cols: dict[str, list] = {k: [] for k in ("part", "own", "a", "c", "b", "ex", "w", "subst")}
     groups: dict = {}
     right = np.cumsum(np.where(pinned, -1, 1)[::-1])[::-1]  # d at x just left of each edge
-    for j, (edge, direction, eps, _pc, n_first, n_graded, far) in enumerate(structure):
+    for j, (edge, direction, eps, _pc, n_first, n_graded, far, switch) in enumerate(structure):
         # the sign of W in the gap next to the edge: d counts the edges to the right of x
         d = right[edge + 1] if direction > 0 and edge + 1 < len(pinned) else \
             (0 if direction > 0 else right[edge])
@@ -531,7 +538,7 @@ def _gap_plan(structure: tuple, pinned: tuple) -> GapPlan:
         subs = _graded_part(n_first, n_graded) if n_first else []
         if far:
             subs.append((FAR_NODES, (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), None))
-        for n, lo, hi, jacobi in subs:
+        for k, (n, lo, hi, jacobi) in enumerate(subs):
             tau, w = jacobi_rule(n, 0.0, eps) if jacobi else jacobi_rule(n, 0.0, 0.0)
             lo_, hi_ = np.array(lo)[:, None], np.array(hi)[:, None]
             cols["a"].append(lo_ * (1 - tau) / 2 + hi_ * (1 + tau) / 2)
@@ -540,23 +547,36 @@ def _gap_plan(structure: tuple, pinned: tuple) -> GapPlan:
             cols["ex"].append(np.full(n, 0.0 if jacobi is None else eps))
             cols["w"].append(sign * direction * w)
             cols["own"].append(np.full(n, -1 if jacobi is None else edge))
+            cols["subst"].append(np.full(n, jacobi is not None and not 0 <= switch < k))
             cols["part"].append(np.full(n, j))
     if not cols["part"]:
         z = np.zeros(0)
         return GapPlan(*_part_arrays(structure), np.zeros(0, int), np.zeros(0, int),
                        np.zeros((3, 0)), np.zeros((3, 0)), np.zeros((2, 0)), z, z, (),
-                       np.zeros((0, len(structure))), len(pinned))
+                       np.zeros((0, len(structure))), len(pinned),
+                       np.array([s[7] for s in structure], int))
     part = np.concatenate(cols["part"])
     own = np.concatenate(cols["own"])
+    subst = np.concatenate(cols["subst"])
     for pc in {s[3] for s in structure}:
-        nodes = np.flatnonzero((own >= 0) & np.isin(part, [j for j, s in enumerate(structure)
+        nodes = np.flatnonzero(subst & np.isin(part, [j for j, s in enumerate(structure)
                                                            if s[3] is pc]))
         if nodes.size:
             groups[pc] = nodes
     return GapPlan(*_part_arrays(structure), part, own, np.concatenate(cols["a"], 1),
                    np.concatenate(cols["c"], 1), np.concatenate(cols["b"], 1),
                    np.concatenate(cols["ex"]), np.concatenate(cols["w"]), tuple(groups.items()),
-                   (part[:, None] == np.arange(len(structure))).astype(float), len(pinned))
+                   (part[:, None] == np.arange(len(structure))).astype(float), len(pinned),
+                   np.array([s[7] for s in structure], int))
+
+
+def _switch(first: float, n_graded: int, reach: float) -> int:
+    """The first inner boundary ``first GRADING^m`` (``m < n_graded``) of a graded part at least
+    ``reach`` from its edge, -1 if none."""
+    for m in range(n_graded):
+        if first * GRADING**m >= reach:
+            return m
+    return -1
 
 
 def _part_arrays(structure: tuple) -> tuple:
@@ -725,9 +745,12 @@ class Batch:
             out = np.minimum(out, np.min(np.where(dm > 0, dm, np.inf), axis=2))
         return out
 
-    def gap_plan(self, idx: Sequence[int], x_to: Sequence[float]) -> GapPlan:
+    def gap_plan(self, idx: Sequence[int], x_to: Sequence[float],
+                 subtract_reach: float = math.inf) -> GapPlan:
         """The structure of the integrals from edges ``idx`` to ``x_to``, sized on member 0; each
-        target lies in the gap (or the outer region) on the outer side of its edge."""
+        target lies in the gap (or the outer region) on the outer side of its edge.  The edge
+        piece's slope is subtracted in B (sum ``int g'``) up to the first graded boundary at
+        least ``subtract_reach`` widths of the edge's zone away, not beyond (sum ``int w'``)."""
         eps = self.layout.eps.tolist()
         el = self.edges[0].tolist()
         clearance = self._edge_clearances[0].tolist()
@@ -748,7 +771,9 @@ class Batch:
                 while lo < length * (1 - 1e-14):
                     lo, n_graded = min(length, lo * GRADING), n_graded + 1
             structure.append((int(i), 1.0 if xt >= x0 else -1.0, eps[i], pc, n_first, n_graded,
-                              dist > length * (1 + 1e-14)))
+                              dist > length * (1 + 1e-14),
+                              _switch(first if length > 0 else 0.0, n_graded,
+                                      subtract_reach * (el[i | 1] - el[i & ~1]))))
         return _gap_plan(tuple(structure), tuple(self.layout.pinned.tolist()))
 
     def gap_sums(self, plan: GapPlan, x_to: np.ndarray) -> np.ndarray:
@@ -758,7 +783,7 @@ class Batch:
         if plan.part.size == 0:
             return np.zeros(x_to.shape)
         _, D, L = self._graded_lengths(plan, x_to)
-        f = np.minimum(L, self._edge_clearances[:, plan.edge])
+        f = self._first_lengths(plan, L)
         x, w = plan.nodes(self.edges, np.concatenate([f, L, D], axis=1))
         H = np.zeros(x.shape)
         for pc, nodes in plan.groups:
@@ -770,10 +795,18 @@ class Batch:
         return (vals @ plan.sums) / np.pi
 
     def graded_ends(self, plan: GapPlan, x_to: np.ndarray) -> np.ndarray:
-        """The end of each graded part of :meth:`gap_sums` ``(K, parts)``: the target, or the
+        """The end of the subtraction in each part of :meth:`gap_sums` ``(K, parts)``: its
+        switch (see :meth:`gap_plan`), else the end of the graded part: the target, or the
         limit half-way to the end of the edge piece's continuation."""
         x0, D, L = self._graded_lengths(plan, x_to)
-        return np.where(L == D, x_to, x0 + plan.direction * L)
+        switched = x0 + plan.direction * self._first_lengths(plan, L) \
+            * GRADING ** np.maximum(plan.switch, 0)
+        return np.where(plan.switch >= 0, switched,
+                        np.where(L == D, x_to, x0 + plan.direction * L))
+
+    def _first_lengths(self, plan: GapPlan, L: np.ndarray) -> np.ndarray:
+        """Length ``f`` of the first (Gauss-Jacobi) sub-interval of each graded part."""
+        return np.minimum(L, self._edge_clearances[:, plan.edge])
 
     def _graded_lengths(self, plan: GapPlan, x_to: np.ndarray
                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -793,21 +826,26 @@ class Batch:
     def interconnections(self) -> np.ndarray:
         """Rigid interconnection residuals ``(K, n - 1)`` between neighbouring zones (paper
         Eq. 17), all gaps: ``h(a) - h(b) + int_b^mid w' - int_a^mid w' = S_b - S_a + [h]`` where
-        ``[h]``, the jump of h between the ends of the two graded parts, vanishes when both reach
-        the midpoint on the same piece."""
+        ``[h]`` is the jump of h between the ends of the two subtractions (it vanishes when both
+        reach the midpoint on the same piece).  The subtraction stops SUBTRACT_REACH zone widths
+        from the edge: beyond, the sums are ``int w'`` (scale A P) and not ``int g'`` (scale
+        ``|h'|`` times the gap), which rounded at ``eps |h'| span`` (5e-8 A P for two cylinders 4
+        apart at P = 1e-8: the self-check refused the load split)."""
         n = self.layout.n
         if n < 2:
             return np.zeros((self.size, 0))
         e = self.edges
         mid = 0.5 * (e[:, 1:-1:2] + e[:, 2:-1:2])
         x_to = np.concatenate([mid, mid], axis=1)
-        plan = self.gap_plan([*range(1, 2 * n - 2, 2), *range(2, 2 * n - 1, 2)], x_to[0].tolist())
+        plan = self.gap_plan([*range(1, 2 * n - 2, 2), *range(2, 2 * n - 1, 2)], x_to[0].tolist(),
+                             SUBTRACT_REACH)
         S = self.gap_sums(plan, x_to)
         out = S[:, : n - 1] - S[:, n - 1:]
         pcs, ends = plan.pieces, None
         for m in range(n - 1):
             pb, pa = pcs[m], pcs[m + n - 1]
-            if not (pb is pa and not plan.far[m] and not plan.far[m + n - 1]):
+            if not (pb is pa and not plan.far[m] and not plan.far[m + n - 1]
+                    and plan.switch[m] < 0 and plan.switch[m + n - 1] < 0):
                 ends = self.graded_ends(plan, x_to) if ends is None else ends
                 h = self.h_at(ends[:, [m + n - 1, m]], [pa, pb])
                 out[:, m] += h[:, 0] - h[:, 1]
