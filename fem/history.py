@@ -361,7 +361,7 @@ def make_step(
     candidate = np.zeros(n_all, dtype=bool)
     candidate[cand] = True
     check_outside_gap(gap, candidate, iface.x, stage, load)
-    zones, sticks = contact_and_stick(iface.x, p, q, status, candidate, mu)
+    zones, sticks = contact_and_stick(iface.x, p, q, status, candidate, mu, gap)
     M = float(np.sum(iface.x * p * iface.w)) if load.M is None else load.M
     reac = fields.reactions(i)
     scale = (P0, P0, P0 * max(float(np.max(np.abs(prob.x))), 1e-300))
