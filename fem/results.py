@@ -132,15 +132,15 @@ def sqrt_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> 
     EDGE_SKIP outermost ones, within the outer third of the run (at least 4 nodes): the field
     further in need not be sqrt-shaped (exact for f**2 linear or quadratic in x, on any
     grid).  A fit whose
-    root is not between the run's last-but-one node and the first node outside it (too short a
-    run, a field that is not sqrt-shaped over those nodes) gives way to one skipping one node,
+    root is not within :func:`edge_bounds` (too short a run, a field that is not sqrt-shaped
+    over those nodes) gives way to one skipping one node,
     then to the line through the two outermost nodes (clipped to that interval).
     """
     i0, i1 = run
     end = i1 if step > 0 else i0
     inward = np.arange(end, i0 - 1, -1) if step > 0 else np.arange(end, i1 + 1)
-    reach, (lo, hi) = max(inward.size // 3, 4), edge_bounds(x, end, step)
-    for skip in (EDGE_SKIP, 1):
+    reach, (lo, hi) = inward.size // 3, edge_bounds(x, end, step)
+    for skip in (EDGE_SKIP,):
         nodes = inward[skip:min(skip + EDGE_FIT, reach)]
         root = power_root(x[nodes], f[nodes] ** 2, x[end], -step) if nodes.size >= 3 else None
         if root is not None and lo <= root <= hi:
@@ -170,10 +170,11 @@ def gap_edge(x: np.ndarray, gap: np.ndarray, status: np.ndarray, end: int, step:
 
 
 def edge_bounds(x: np.ndarray, end: int, step: int) -> tuple[float, float]:
-    """Where an edge may lie: between the node before the run's end node ``end`` and the first
-    node outside (direction ``step``)."""
+    """Where an edge may lie: from half-way between the run's end node ``end`` and the node
+    before it (the end node may hold a small smeared pressure just outside the edge) to the
+    first node outside (direction ``step``)."""
     inner = end - step if 0 <= end - step < x.size else end
-    lo, hi = sorted((x[inner], x[end + step]))
+    lo, hi = sorted((0.5 * (x[inner] + x[end]), x[end + step]))
     return float(lo), float(hi)
 
 

@@ -160,7 +160,7 @@ def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, pro
         conv_figs[name] = figures.convergence_figure(st)
         (root / "figures" / f"{name}_convergence.png").write_bytes(conv_figs[name])
         progress(f"convergence {name}: pressure order {st.orders['pressure_l2_error']:.2f}, "
-                 f"converges: {st.converges}")
+                 f"{st.verdict()}")
     rows, fig5_png = [], None
     if want_fig5:
         rows = fig5_rows()

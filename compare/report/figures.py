@@ -110,20 +110,56 @@ def _t(stage: int, Q: float, Q0: float) -> float:
 
 
 def convergence_figure(study) -> bytes:
-    """Log-log errors against the study parameter with observed orders."""
+    """Log-log errors against the study parameter with observed orders; segments where an error
+    stalls (local order < STALL_ORDER) in red, the expected pressure order as a reference slope,
+    the Richardson-extrapolated edge error as a dotted line (or why it was refused)."""
+    from compare.convergence import STALL_ORDER
+
     fig, ax = plt.subplots(figsize=(6.5, 4))
     h = np.asarray(study.parameter)
     for name, errs in study.errors.items():
         e = np.asarray(errs, float)
-        if np.all(~np.isfinite(e)):
+        if np.all(~np.isfinite(e)) or np.all(h <= 0):
             continue
-        ax.loglog(h, e, "o-", label=f"{name} (order {study.orders[name]:.2f})")
+        line, = ax.loglog(h, e, "o-", label=f"{name} (order {study.orders[name]:.2f})")
+        for i, p in enumerate(study.local_orders[name]):
+            if np.isfinite(p) and p < STALL_ORDER:
+                ax.loglog(h[i:i + 2], e[i:i + 2], "-", color="red", lw=3, alpha=0.5)
+                ax.annotate(f"stalls ({p:.2f})", (h[i + 1], e[i + 1]), fontsize=7, color="red",
+                            xytext=(4, -10), textcoords="offset points")
+    _expected_slope(ax, study, h)
+    _richardson_line(ax, study)
     xlabel = {"h": "finest element length h", "penalty": "1 / penalty factor",
               "domain": "1 / size factor"}[study.kind]
-    ax.set(xlabel=xlabel, ylabel="error", title=f"{study.case_name}: {study.kind}-convergence")
+    ax.set(xlabel=xlabel, ylabel="error",
+           title=f"{study.case_name}: {study.kind}-convergence\n{study.verdict()}"[:160])
+    ax.title.set_fontsize(8)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     return png(fig)
+
+
+def _expected_slope(ax, study, h: np.ndarray) -> None:
+    """Dashed reference line of the expected pressure order through the coarsest point."""
+    if "pressure_l2_error" not in study.expected:
+        return
+    e0 = study.errors["pressure_l2_error"][0]
+    if not (np.isfinite(e0) and e0 > 0):
+        return
+    order = study.expected["pressure_l2_error"][0]
+    ax.loglog(h, e0 * (h / h[0]) ** order, "--", color="0.5", lw=1,
+              label=f"expected pressure order {order:g}")
+
+
+def _richardson_line(ax, study) -> None:
+    if study.kind != "h":
+        return
+    if np.isfinite(study.richardson_error) and study.richardson_error > 0:
+        ax.axhline(study.richardson_error, ls=":", color="k", lw=1,
+                   label=f"Richardson edge error {study.richardson_error:.2e}")
+    elif study.richardson_reason:
+        ax.text(0.02, 0.02, f"Richardson refused: {study.richardson_reason}"[:90],
+                transform=ax.transAxes, fontsize=6, color="red")
 
 
 def fig5_figure(rows: list[dict]) -> bytes:
