@@ -180,11 +180,12 @@ def richardson(values: Sequence[float], ratio: float = 2.0, order: float | None 
 
 def local_orders(h: Sequence[float], err: Sequence[float]) -> list[float]:
     """Observed order between successive runs, ``log(e_i / e_{i+1}) / log(h_i / h_{i+1})``
-    (nan where an error is not positive and finite)."""
+    (nan where an error is not positive and finite or h is 0, e.g. the augmented Lagrangian)."""
     h, e = np.asarray(h, float), np.asarray(err, float)
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.log(e[:-1] / e[1:]) / np.log(h[:-1] / h[1:])
-    ok = (e[:-1] > 0) & (e[1:] > 0) & np.isfinite(e[:-1]) & np.isfinite(e[1:])
+    ok = (e[:-1] > 0) & (e[1:] > 0) & np.isfinite(e[:-1]) & np.isfinite(e[1:]) & (h[1:] > 0) \
+        & (h[:-1] > 0)
     return [float(v) if k else float("nan") for v, k in zip(out, ok, strict=True)]
 
 
