@@ -76,6 +76,11 @@ def runs(mask: np.ndarray) -> list[tuple[int, int]]:
 #: of the pressure-side fit: on Cattaneo (size factor 100, levels 1-3) the two outermost nodes
 #: imply edges up to 0.18 element off, the third and further ones < 0.03 element.
 EDGE_SKIP = 2
+#: The skipped nodes must lie within this many elements (along x, at the fit's slope) of the
+#: fit, else it is not used: measured on Cattaneo they imply edges <= 0.18 element off, while a
+#: kink between them and the fitted nodes (a stage-2 stick edge frozen into a stage-3 stick zone
+#: next to its edge, double wedge) puts them ~2 elements off.
+SKIP_SHIFT = 0.5
 #: Nodes in the pressure-side least-squares fit of f**2 after EDGE_SKIP: f**2 of a sqrt edge is
 #: smooth, and with >= 4 nodes a quadratic also takes its curvature (exact for Hertz).
 EDGE_FIT = 5
@@ -96,21 +101,37 @@ def smooth_prefix(y: np.ndarray) -> int:
     return y.size
 
 
-def power_root(xs: np.ndarray, ys: np.ndarray, x_end: float, rising: int, degree: int = 2
-               ) -> float | None:
+def power_root(xs: np.ndarray, ys: np.ndarray, x_end: float, rising: int, degree: int = 2,
+               skipped: tuple[np.ndarray, np.ndarray] | None = None) -> float | None:
     """Root next to ``x_end`` of the least-squares polynomial of ``degree`` (linear with 2
     points) through the smooth prefix of ``ys`` at ``xs``, where it rises in the direction
-    ``rising`` (+-1); None with < 2 points or no such root."""
+    ``rising`` (+-1); None with < 2 points or no such root, or if a ``skipped`` point (x, y)
+    lies further from the fit than SKIP_SHIFT elements (measured along x at the fit's slope):
+    the field between the fitted nodes and the edge is then not the fitted sqrt (a kink)."""
     n = smooth_prefix(ys)
     if n < 2:
         return None
     xs, ys = xs[:n], ys[:n]
     scale = float(np.ptp(xs)) or 1.0
-    t = (xs - x_end) / scale
-    c = np.r_[P.polyfit(t, ys, min(degree, n - 1)), 0.0, 0.0][:3]
+    c = np.r_[P.polyfit((xs - x_end) / scale, ys, min(degree, n - 1)), 0.0, 0.0][:3]
     roots = quadratic_roots(*c)
     ok = roots[(c[1] + 2 * c[2] * roots) * rising > 0]
-    return None if ok.size == 0 else x_end + scale * float(ok[np.argmin(np.abs(ok))])
+    if ok.size == 0 or (skipped is not None and not _near_fit(c, scale, x_end, *skipped)):
+        return None
+    return x_end + scale * float(ok[np.argmin(np.abs(ok))])
+
+
+def _near_fit(c: np.ndarray, scale: float, x_end: float, xk: np.ndarray, yk: np.ndarray
+              ) -> bool:
+    """Whether the points (xk, yk) lie within SKIP_SHIFT elements (along x) of the polynomial
+    ``c`` in ``t = (x - x_end) / scale``; the element is the spacing of the points."""
+    t = (xk - x_end) / scale
+    value, slope = P.polyval(t, c), P.polyval(t, P.polyder(c)) / scale
+    h = float(np.max(np.abs(np.diff(np.r_[xk, x_end])))) if xk.size > 1 else abs(
+        float(xk[0] - x_end)) or 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        shift = np.abs((value - yk) / slope)
+    return bool(np.all(shift <= SKIP_SHIFT * h))
 
 
 def quadratic_roots(c0: float, c1: float, c2: float) -> np.ndarray:
@@ -129,20 +150,20 @@ def sqrt_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> 
 
     Near a nonsingular edge f ~ sqrt(distance), so f**2 is smooth through the edge: a polynomial
     (:func:`power_root`) is fitted by least squares to f**2 at up to EDGE_FIT nodes after the
-    EDGE_SKIP outermost ones, within the outer third of the run (at least 4 nodes): the field
-    further in need not be sqrt-shaped (exact for f**2 linear or quadratic in x, on any
-    grid).  A fit whose
-    root is not within :func:`edge_bounds` (too short a run, a field that is not sqrt-shaped
-    over those nodes) gives way to one skipping one node,
-    then to the line through the two outermost nodes (clipped to that interval).
+    EDGE_SKIP outermost ones, within the outer third of the run (the field further in need not
+    be sqrt-shaped); exact for f**2 linear or quadratic in x, on any grid.  If that is not
+    possible (a short run), the skipped nodes are off the fit (a kink) or its root is not
+    within :func:`edge_bounds`, the line through f**2 at the two outermost nodes is used
+    (clipped to those bounds).
     """
     i0, i1 = run
     end = i1 if step > 0 else i0
     inward = np.arange(end, i0 - 1, -1) if step > 0 else np.arange(end, i1 + 1)
     reach, (lo, hi) = inward.size // 3, edge_bounds(x, end, step)
-    for skip in (EDGE_SKIP,):
-        nodes = inward[skip:min(skip + EDGE_FIT, reach)]
-        root = power_root(x[nodes], f[nodes] ** 2, x[end], -step) if nodes.size >= 3 else None
+    nodes, outer = inward[EDGE_SKIP:min(EDGE_SKIP + EDGE_FIT, reach)], inward[:EDGE_SKIP]
+    if nodes.size >= 3:
+        root = power_root(x[nodes], f[nodes] ** 2, x[end], -step,
+                          skipped=(x[outer], f[outer] ** 2))
         if root is not None and lo <= root <= hi:
             return root
     root = power_root(x[inward[:2]], f[inward[:2]] ** 2, x[end], -step)

@@ -138,3 +138,16 @@ def test_singular_edge_at_the_corner_node():
     status = np.where(inside, STICK, OPEN).astype(np.int8)
     zones, _ = contact_and_stick(x, p, 0 * p, status, np.ones(x.size, bool), 0.5)
     assert zones == ((-0.5, 0.5),)
+
+
+def test_a_kink_next_to_the_edge_falls_back_to_the_outermost_nodes():
+    """A stage-3 stick zone can hold the frozen stage-2 stick edge within two elements of its
+    own edge: further in, f**2 is not the edge's sqrt, the skipped nodes are off the fit, and
+    the line through the two outermost nodes (on the sqrt part here) is used."""
+    x = uniform()
+    b, kink = 0.5219, 0.4719
+    f2 = np.where(x < kink, (b - kink) + 3.0 * (kink - x), b - x)  # fit root in bounds
+    f = np.sqrt(np.clip(f2, 0.0, None)) * (x > -0.5)
+    i0, i1 = run_of(f)
+    assert x[i1 - 1] > kink > x[i1 - 2]
+    assert sqrt_edge(x, f, (i0, i1), +1) == pytest.approx(b, abs=EXACT * (x[1] - x[0]))
