@@ -28,6 +28,8 @@ class FieldRecovery:
         rx = np.where(is_x[:, None], F1[top], 0.0)
         ry = np.where(~is_x[:, None], F1[top], 0.0)
         self._reactions = np.c_[-ry.sum(axis=0), rx.sum(axis=0), -(xy[0] @ ry - xy[1] @ rx)]
+        #: Largest lever arm (about (0, 0)) of the plate reaction forces (length).
+        self.lever = float(np.max(np.hypot(xy[0], xy[1])))
         self._stress = {}
 
     @classmethod
@@ -42,6 +44,8 @@ class FieldRecovery:
         N1 = disc.bases[0].N
         U = np.zeros((disc.n_dofs, lam.shape[1]))
         U[model.free] = Uf
+        if model.far is not None:
+            U += model.far.displacement(lam)
         U1, U2 = U[:N1], U[N1:]
         loc = disc.bases[0].doflocs
         z = np.array([s.z for s in states]).T

@@ -57,24 +57,91 @@ def graded_sizes(first: float, length: float, growth: float) -> np.ndarray:
     return sizes * (length / sizes.sum())
 
 
-def window_axis(
-    window: tuple[float, float], kinks, h: float, spec: MeshSpec, W: float
-) -> np.ndarray:
-    """Node x: uniform size h in the window (+margin), nodes at kinks, graded out to +-W."""
-    width = window[1] - window[0]
-    xl, xr = window[0] - spec.margin * width, window[1] + spec.margin * width
-    xc = 0.5 * (window[0] + window[1])
+def as_windows(window) -> tuple[tuple[float, float], ...]:
+    """One window (xmin, xmax) or several ((xmin, xmax), ...) as a sorted tuple of disjoint
+    windows (overlapping ones are merged)."""
+    arr = np.asarray(window, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 1:
+        raise InputError(
+            f"window={window!r} is not allowed: need (xmin, xmax) or a sequence of such pairs"
+        )
+    for lo, hi in arr:
+        if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+            raise InputError(f"window=({lo!r}, {hi!r}) is not allowed: need finite xmin < xmax")
+    merged: list[list[float]] = []
+    for lo, hi in sorted(arr.tolist()):
+        if merged and lo <= merged[-1][1]:  # overlapping windows: their union
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    return tuple((float(lo), float(hi)) for lo, hi in merged)
+
+
+def fine_regions(windows, spec: MeshSpec) -> list[list[float]]:
+    """[xl, xr, h] of each window widened by its margin, with its own element size
+    ``h = width / (n_window 2**level)``.  Where two widened windows overlap they are cut
+    half-way between the windows; the coarser one then gives up the length its grading down
+    to the finer size needs, ``|h0 - h1| / (growth - 1)`` (a zone next to a much narrower one
+    is graded at that edge: finer, never coarser)."""
+    out = []
+    for lo, hi in windows:
+        width = hi - lo
+        out.append([lo - spec.margin * width, hi + spec.margin * width, width / spec_cells(spec)])
+    for k, ((_, hi0), (lo1, _)) in enumerate(zip(windows[:-1], windows[1:], strict=True)):
+        left, right = out[k], out[k + 1]
+        if left[1] > right[0]:
+            left[1] = right[0] = 0.5 * (hi0 + lo1)
+        need = abs(left[2] - right[2]) / (spec.growth - 1.0) - (right[0] - left[1])
+        if need > 0 and left[2] > right[2]:
+            left[1] = max(left[1] - need, left[0] + left[2])
+        elif need > 0:
+            right[0] = min(right[0] + need, right[1] - right[2])
+    return out
+
+
+def spec_cells(spec: MeshSpec) -> float:
+    """Elements across one window: ``n_window 2**level``."""
+    return spec.n_window * 2.0**spec.level
+
+
+def uniform_axis(xl: float, xr: float, h: float, kinks) -> np.ndarray:
+    """Nodes of size <= h on [xl, xr] (both ends included) with a node on every kink inside."""
     inner = [k for k in sorted(set(float(k) for k in kinks)) if xl < k < xr]
     breaks = [xl, *inner, xr]
     fine = [
         np.linspace(a, b, max(1, int(np.ceil((b - a) / h - 1e-9))) + 1)[:-1]
         for a, b in zip(breaks[:-1], breaks[1:], strict=True)
     ]
-    core = np.r_[np.concatenate(fine), xr]
-    left = xl - np.cumsum(graded_sizes(h * spec.growth, xl - (xc - W), spec.growth))
-    right = xr + np.cumsum(graded_sizes(h * spec.growth, xc + W - xr, spec.growth))
-    x = np.r_[left[::-1], core, right]
-    return snap_kinks(x, [k for k in kinks if not xl < k < xr])
+    return np.r_[np.concatenate(fine), xr]
+
+
+def graded_gap(a: float, b: float, ha: float, hb: float, growth: float) -> np.ndarray:
+    """Interior nodes of (a, b), graded from size ha at a and hb at b, coarsest in between
+    (where the two geometric gradings ``h + (growth - 1) distance`` meet)."""
+    meet = 0.5 * (a + b + (hb - ha) / (growth - 1.0))
+    meet = float(np.clip(meet, a, b))
+    left = a + np.cumsum(graded_sizes(ha * growth, meet - a, growth))[:-1]
+    right = b - np.cumsum(graded_sizes(hb * growth, b - meet, growth))[:-1]
+    return np.r_[left, [meet] if a < meet < b else [], right[::-1]]
+
+
+def window_axis(windows, kinks, spec: MeshSpec, W: float) -> np.ndarray:
+    """Node x: a uniform fine size in every window (+ margin; size relative to its own width),
+    nodes at kinks, graded across the gaps between windows and out to +-W."""
+    regions = fine_regions(windows, spec)
+    xc = 0.5 * (windows[0][0] + windows[-1][1])
+    parts = [uniform_axis(*regions[0], kinks)]
+    for (_, r0, h0), (l1, r1, h1) in zip(regions[:-1], regions[1:], strict=True):
+        fine = uniform_axis(l1, r1, h1, kinks)
+        parts += [graded_gap(r0, l1, h0, h1, spec.growth), fine[1:] if l1 == r0 else fine]
+    (xl, _, hl), (_, xr, hr) = regions[0], regions[-1]
+    left = xl - np.cumsum(graded_sizes(hl * spec.growth, xl - (xc - W), spec.growth))
+    right = xr + np.cumsum(graded_sizes(hr * spec.growth, xc + W - xr, spec.growth))
+    x = np.r_[left[::-1], np.concatenate(parts), right]
+    fine = [k for k in kinks if any(a < k < b for a, b, _ in regions)]
+    return snap_kinks(x, [k for k in kinks if k not in fine])
 
 
 def snap_kinks(x: np.ndarray, kinks) -> np.ndarray:
@@ -89,21 +156,26 @@ def snap_kinks(x: np.ndarray, kinks) -> np.ndarray:
     return x
 
 
-def build_mesh(spec: MeshSpec, window: tuple[float, float], kinks=()) -> TwoBodyMesh:
-    """Generate the graded tensor-product two-body mesh for a contact window."""
+def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
+    """Generate the graded tensor-product two-body mesh refined in one window (xmin, xmax) or
+    in several ((xmin, xmax), ...), e.g. one per expected contact zone."""
     validate_mesh_spec(spec)
-    if not (np.isfinite(window[0]) and np.isfinite(window[1]) and window[1] > window[0]):
-        raise InputError(f"window={tuple(window)!r} is not allowed: need finite xmin < xmax")
-    width = window[1] - window[0]
-    h = width / (spec.n_window * 2.0**spec.level)
-    W = spec.W if spec.W is not None else spec.size_factor * 0.5 * width
+    windows = as_windows(window)
+    span = windows[-1][1] - windows[0][0]
+    W = spec.W if spec.W is not None else spec.size_factor * 0.5 * span
     H = spec.H if spec.H is not None else W
-    if W <= (0.5 + spec.margin) * width * 1.05:
+    regions = fine_regions(windows, spec)
+    half = max(
+        0.5 * (windows[0][0] + windows[-1][1]) - regions[0][0],
+        regions[-1][1] - 0.5 * (windows[0][0] + windows[-1][1]),
+    )
+    if W <= half * 1.05:
         raise InputError(
-            f"W={W:g} is not allowed: need W > {(0.5 + spec.margin) * width * 1.05:g} "
+            f"W={W:g} is not allowed: need W > {half * 1.05:g} "
             "(the window plus its margin must fit in the bodies)"
         )
-    x = window_axis(window, kinks, h, spec, W)
+    x = window_axis(windows, kinks, spec, W)
+    h = min(r[2] for r in regions)
     depth = np.cumsum(graded_sizes(h, H, spec.growth))
     lower = MeshQuad.init_tensor(x, np.r_[-depth[::-1], 0.0])
     upper = MeshQuad.init_tensor(x, np.r_[0.0, depth])

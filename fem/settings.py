@@ -35,6 +35,9 @@ class MeshSpec:
     growth: geometric growth ratio of element sizes away from the window (> 1).
     margin: fine-mesh margin on each side of the window, fraction of its width.
     size_factor: default W, H as multiples of the window half-width.
+    boundary: 'half-plane' (the outer boundary of each body moves as a half-plane loaded
+        by the interface forces, fem.farfield: no finite-body error) or 'clamped' (body 1's
+        top tied to the plate, body 2's bottom clamped, sides free).
     """
 
     level: int = 1
@@ -45,6 +48,7 @@ class MeshSpec:
     growth: float = 1.2
     margin: float = 0.15
     size_factor: float = SIZE_FACTOR
+    boundary: str = "half-plane"
 
 
 @dataclass(frozen=True)
@@ -56,10 +60,13 @@ class MeshFile:
     ``contact_lower``, ``top`` and ``bottom``; the interface lies on y = 0 and the
     two contact node rows must have the same x coordinates (node-to-node).
     order: polynomial order of the elements built on the quads (1 or 2).
+    boundary: 'half-plane' (every boundary node off y = 0 moves as a half-plane, see
+        MeshSpec) or 'clamped' (top tied to the plate, bottom clamped).
     """
 
     path: Path
     order: int = 1
+    boundary: str = "half-plane"
 
 
 @dataclass(frozen=True)
@@ -157,8 +164,19 @@ def validate_path(path: LoadPath, Q0: float) -> tuple[np.ndarray, np.ndarray]:
     return s2, s3
 
 
+#: Outer boundary conditions of the two bodies (MeshSpec.boundary, MeshFile.boundary).
+BOUNDARIES = ("half-plane", "clamped")
+
+
+def validate_boundary(boundary: str) -> None:
+    """Raise InputError unless boundary is one of BOUNDARIES."""
+    if boundary not in BOUNDARIES:
+        raise InputError(f"boundary={boundary!r} is not allowed: need one of {list(BOUNDARIES)}")
+
+
 def validate_mesh_spec(spec: MeshSpec) -> None:
     """Raise InputError for an impossible mesh specification."""
+    validate_boundary(spec.boundary)
     if spec.order not in (1, 2):
         raise InputError(f"order={spec.order!r} is not allowed: need 1 or 2")
     if spec.level < -3 or spec.level > 6:

@@ -52,11 +52,18 @@ def test_hertz_richardson_edges_close_to_analytic():
     assert st.richardson_error < 2e-3
 
 
-def test_cattaneo_domain_size_order():
-    """Finite-body error of the FE bodies against the half-plane solution: order ~1 in 1/W."""
+#: Half-plane boundary: spread of the errors over body sizes W = 4, 8, 25 (relative to the
+#: smallest). Measured <= 0.10 (mesh-grading noise); clamped bodies: 11x (edge), 7.8x (pressure).
+DOMAIN_SPREAD = 0.25
+
+
+def test_cattaneo_domain_size_independent():
+    """The half-plane far-field boundary (fem.farfield) removes the finite-body error: the
+    errors no longer depend on the body size (clamped bodies: order ~1 in 1/W)."""
     st = convergence("cattaneo", kind="domain", values=(4.0, 8.0, 25.0))
-    assert st.orders["pressure_l2_error"] > 0.7 and st.orders["edge_error_max"] > 0.7
-    assert st.converges
+    for name in ("pressure_l2_error", "edge_error_max", "stick_edge_error_max"):
+        err = st.errors[name]
+        assert max(err) < (1 + DOMAIN_SPREAD) * min(err), (name, err)
 
 
 @pytest.mark.slow
