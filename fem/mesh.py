@@ -24,6 +24,9 @@ from .settings import MeshFile, MeshSpec, validate_mesh_spec
 BOUNDARY_NAMES = ("contact_upper", "contact_lower", "top", "bottom")
 #: Relative tolerance (to the smallest interface element) for matching node x.
 MATCH_TOL = 1e-6
+#: Depth (multiple of the widest window) of the near-field grading under the contact: at 0.5
+#: the Hertz width stayed 0.033 % short at level 1, at 2 0.020 %, at 4 0.019 % (1.1x the dofs).
+NEAR_DEPTH = 2.0
 
 
 @dataclass(frozen=True)
@@ -122,6 +125,10 @@ def graded_gap(a: float, b: float, ha: float, hb: float, growth: float) -> np.nd
     (where the two geometric gradings ``h + (growth - 1) distance`` meet)."""
     meet = 0.5 * (a + b + (hb - ha) / (growth - 1.0))
     meet = float(np.clip(meet, a, b))
+    if meet - a < ha * growth:  # no room for a graded run on that side: one run fills the gap
+        meet = a
+    elif b - meet < hb * growth:
+        meet = b
     left = a + np.cumsum(graded_sizes(ha * growth, meet - a, growth))[:-1]
     right = b - np.cumsum(graded_sizes(hb * growth, b - meet, growth))[:-1]
     return np.r_[left, [meet] if a < meet < b else [], right[::-1]]
@@ -129,19 +136,22 @@ def graded_gap(a: float, b: float, ha: float, hb: float, growth: float) -> np.nd
 
 def window_axis(windows, kinks, spec: MeshSpec, W: float) -> np.ndarray:
     """Node x: a uniform fine size in every window (+ margin; size relative to its own width),
-    nodes at kinks, graded across the gaps between windows and out to +-W."""
+    nodes at kinks, graded across the gaps between windows and out to +-W (each graded run
+    starts at growth times the spacing it continues)."""
     regions = fine_regions(windows, spec)
     xc = 0.5 * (windows[0][0] + windows[-1][1])
-    parts = [uniform_axis(*regions[0], kinks)]
-    for (_, r0, h0), (l1, r1, h1) in zip(regions[:-1], regions[1:], strict=True):
-        fine = uniform_axis(l1, r1, h1, kinks)
-        parts += [graded_gap(r0, l1, h0, h1, spec.growth), fine[1:] if l1 == r0 else fine]
-    (xl, _, hl), (_, xr, hr) = regions[0], regions[-1]
-    left = xl - np.cumsum(graded_sizes(hl * spec.growth, xl - (xc - W), spec.growth))
-    right = xr + np.cumsum(graded_sizes(hr * spec.growth, xc + W - xr, spec.growth))
+    fine = [uniform_axis(*r, kinks) for r in regions]
+    g = spec.growth
+    parts = [fine[0]]
+    for a, b in zip(fine[:-1], fine[1:], strict=True):
+        gap = graded_gap(a[-1], b[0], a[-1] - a[-2], b[1] - b[0], g)
+        parts += [gap, b[1:] if b[0] == a[-1] else b]
+    xl, xr = fine[0][0], fine[-1][-1]
+    left = xl - np.cumsum(graded_sizes((fine[0][1] - xl) * g, xl - (xc - W), g))
+    right = xr + np.cumsum(graded_sizes((xr - fine[-1][-2]) * g, xc + W - xr, g))
     x = np.r_[left[::-1], np.concatenate(parts), right]
-    fine = [k for k in kinks if any(a < k < b for a, b, _ in regions)]
-    return snap_kinks(x, [k for k in kinks if k not in fine])
+    inside = [k for k in kinks if any(a < k < b for a, b, _ in regions)]
+    return snap_kinks(x, [k for k in kinks if k not in inside])
 
 
 def snap_kinks(x: np.ndarray, kinks) -> np.ndarray:
@@ -154,6 +164,24 @@ def snap_kinks(x: np.ndarray, kinks) -> np.ndarray:
     if np.any(np.diff(x) <= 0):
         raise InputError(f"kinks={list(kinks)} could not be placed on mesh nodes: refine the mesh")
     return x
+
+
+def near_growth(spec: MeshSpec) -> float:
+    """Depth growth ratio in the near field of the contact: ``1 + (growth - 1)
+    2**(-(level + 1) / 2)``.  The Q1 error there scales like (ratio - 1)**2 (the Hertz width
+    was 0.09 % short at every level with the ratio fixed at 1.2); this makes it fall like h."""
+    return 1.0 + (spec.growth - 1.0) * 2.0 ** (-(spec.level + 1) / 2)
+
+
+def depth_axis(h: float, H: float, near: float, spec: MeshSpec) -> np.ndarray:
+    """Layer depths from 0 (excluded) to H: graded from h by :func:`near_growth` down to the
+    depth ``near`` (the widest window: the near field of every zone), then by ``growth``."""
+    near = min(near, H)
+    top = np.cumsum(graded_sizes(h, near, near_growth(spec)))
+    if near >= H:
+        return top
+    last = top[-1] - top[-2] if top.size > 1 else top[-1]
+    return np.r_[top, near + np.cumsum(graded_sizes(last * spec.growth, H - near, spec.growth))]
 
 
 def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
@@ -176,7 +204,7 @@ def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
         )
     x = window_axis(windows, kinks, spec, W)
     h = min(r[2] for r in regions)
-    depth = np.cumsum(graded_sizes(h, H, spec.growth))
+    depth = depth_axis(h, H, NEAR_DEPTH * max(b - a for a, b in windows), spec)
     lower = MeshQuad.init_tensor(x, np.r_[-depth[::-1], 0.0])
     upper = MeshQuad.init_tensor(x, np.r_[0.0, depth])
     return from_bodies(upper, lower, "generated")

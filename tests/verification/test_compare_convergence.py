@@ -17,7 +17,8 @@ ORDER_BAND = 0.35  # three coarse levels give the slope to about +-0.3
 
 
 def test_hertz_pressure_order_close_to_one():
-    st = convergence("hertz", levels=(-1, 0, 1))
+    # level -1 (12 elements across the zone) is pre-asymptotic: with it the slope was 1.55
+    st = convergence("hertz", levels=(0, 1, 2))
     order = st.orders["pressure_l2_error"]
     assert abs(order - THEORETICAL_ORDER) < ORDER_BAND, st.summary()
     assert st.converges and not st.stall
