@@ -13,8 +13,6 @@ from compare.run import CaseResult, checks_for, evaluate
 from compare.testing import DisagreementError, assert_agrees
 
 AGREEING = ("hertz", "cattaneo", "double_wedge_a", "double_wedge_b", "double_wedge_c")
-#: Coarse level of the end-to-end runs: one below the library level (not below 0).
-HEAVY = ("three_cylinders", "punch_and_cylinder")
 
 
 @pytest.mark.parametrize("name", AGREEING)
@@ -50,8 +48,9 @@ def test_perturbed_edges_fail_readably(contact_case):
 
 
 def coarse(name: str):
+    """The case one level below its library level (not below 0: 48 elements per zone)."""
     case = load_case(name)
-    return case.with_fem(level=max(case.fem.level - 1, 0)) if name in HEAVY else case
+    return case.with_fem(level=max(case.fem.level - 1, 0))
 
 
 @pytest.mark.parametrize("name", sorted(set(list_cases())))

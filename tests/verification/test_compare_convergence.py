@@ -46,11 +46,15 @@ def test_hertz_edge_error_falls_at_order_one_and_both_sides_agree():
     assert np.max(np.abs(np.subtract(by_gap, by_pressure))) < SIDES_AGREE * res.fem.h_min
 
 
+#: Richardson-extrapolated edges within 0.05 % of the width (issue 14; measured 0.0095 %).
+RICHARDSON_EDGE = 5e-4
+
+
 @pytest.mark.slow
 def test_hertz_richardson_edges_close_to_analytic():
-    st = convergence("hertz", levels=(0, 1, 2, 3))
+    st = convergence("hertz", levels=(0, 1, 2))
     assert abs(st.orders["pressure_l2_error"] - THEORETICAL_ORDER) < ORDER_BAND
-    assert st.richardson_error < 2e-3
+    assert st.richardson_error < RICHARDSON_EDGE, st.richardson_reason
 
 
 #: Half-plane boundary: spread of the errors over body sizes W = 4, 8, 25 (relative to the
@@ -74,3 +78,10 @@ def test_cattaneo_penalty_growth_reaches_discretisation_error():
     err = st.errors["pressure_l2_error"]
     assert err[0] > 1.5 * err[1]
     assert abs(err[3] - err[2]) < 0.1 * err[2]
+
+
+def test_penalty_is_not_the_limit():
+    """Cattaneo edges move by <= 0.03 % of the width from penalty factor 100 to 1e4 and to the
+    augmented Lagrangian (measured 2.7e-5 for 100 / 1e3 / AL before the relative law check)."""
+    st = convergence("cattaneo", kind="penalty")
+    assert st.values[-1] == float("inf") and st.converges, st.verdict()
