@@ -1,6 +1,7 @@
 # multicontact: `make test` passes the tests, `make run` runs the default verification suite.
 # Both create/reuse .venv, install the project and its needs (and, as root on Debian, the system
-# libraries: see .ci/sysdeps.sh), then run.
+# libraries: see .ci/sysdeps.sh), then run, and end by naming the sparse backend (a loud notice
+# when the fast one, CHOLMOD, is missing: .ci/fastsolver.sh).
 VENV   ?= .venv
 PYTHON ?= python3
 PY     := $(VENV)/bin/python
@@ -12,29 +13,31 @@ export OMP_NUM_THREADS := 1
 export MKL_NUM_THREADS := 1
 export MPLBACKEND := Agg
 
-.PHONY: test run sysdeps lint bench slow clean
+.PHONY: test run sysdeps fastsolver lint bench slow clean
 
-$(STAMP): pyproject.toml
+# The stamp depends on everything that decides what gets installed.
+$(STAMP): pyproject.toml Makefile .ci/sysdeps.sh .ci/fastsolver.sh
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e ".[test,cluster]"
-	@if dpkg -s libsuitesparse-dev >/dev/null 2>&1; then \
-	  $(PY) -m pip install -q "scikit-sparse==0.4.16" || \
-	  echo "multicontact: scikit-sparse (CHOLMOD) did not build; the FE model falls back to SciPy"; \
-	fi
 	touch $(STAMP)
 
 sysdeps:
-	@bash .ci/sysdeps.sh
+	@PYTHON=$(PYTHON) bash .ci/sysdeps.sh
 
-test: sysdeps $(STAMP)
-	$(PY) -m pytest -q
+# CHOLMOD is optional: built when its prerequisites are there, retried when they change.
+fastsolver: sysdeps $(STAMP)
+	@bash .ci/fastsolver.sh install $(PY)
 
-run: sysdeps $(STAMP)
-	$(VENV)/bin/multicontact report -o report
+test: sysdeps fastsolver
+	@$(PY) -m pytest -q; rc=$$?; bash .ci/fastsolver.sh check $(PY); exit $$rc
 
-slow: sysdeps $(STAMP)
-	$(PY) -m pytest -q -m slow
+run: sysdeps fastsolver
+	@$(VENV)/bin/multicontact report -o report; rc=$$?; bash .ci/fastsolver.sh check $(PY); \
+	exit $$rc
+
+slow: sysdeps fastsolver
+	@$(PY) -m pytest -q -m slow; rc=$$?; bash .ci/fastsolver.sh check $(PY); exit $$rc
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check analytic fem compare tests benchmarks

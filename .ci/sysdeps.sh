@@ -1,11 +1,33 @@
 #!/usr/bin/env bash
 # System libraries multicontact needs on Debian: EGL/Mesa for off-screen pyvista rendering,
-# SuiteSparse (CHOLMOD, the fast sparse Cholesky behind scikit-sparse) and Chromium (the HTML
-# report test renders the report headless).  As root: installs what is missing.  Otherwise: prints
+# SuiteSparse (CHOLMOD, the fast sparse Cholesky behind scikit-sparse), the Python headers of the
+# interpreter $PYTHON (default python3; scikit-sparse compiles against its Python.h) and Chromium
+# (the HTML report test renders the report headless).  As root: installs what is missing.  Otherwise: prints
 # exactly what is missing and the command to install it, and carries on (features degrade with a
 # clear message; the tests that need them skip with the reason).
 set -u
+PYTHON=${PYTHON:-python3}
 PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri libglx-mesa0 libgl1 libxrender1 libxt6 libxext6 libx11-6 libsuitesparse-dev chromium"
+
+# The Debian package holding Python.h of $PYTHON, if it is missing and Debian's to give.
+python_headers() {
+  local inc ver
+  inc=$("$PYTHON" -c "import sysconfig; print(sysconfig.get_paths()['include'])" 2>/dev/null) \
+    || return 0
+  [ -f "$inc/Python.h" ] && return 0
+  case "$inc" in
+    /usr/include/python3.*)
+      ver=${inc#/usr/include/python}
+      if [ "$(readlink -f /usr/bin/python3)" = "/usr/bin/python$ver" ]; then
+        echo python3-dev
+      else
+        echo "python$ver-dev"
+      fi ;;
+    *) echo "multicontact: $PYTHON has no $inc/Python.h and is not Debian's interpreter:" \
+         "install its headers to build the fast sparse solver (CHOLMOD)" >&2 ;;
+  esac
+}
+PKGS="$PKGS $(python_headers)"
 missing=""
 for p in $PKGS; do
   dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"

@@ -2,7 +2,7 @@
 
 Conventions (see README): p >= 0 compressive, A = 4(1 - nu^2)/E, forces per unit width,
 M = int x p dx about x = 0.  Entry points: :func:`solve_normal`, :func:`load_curve`,
-:mod:`analytic.profiles`.
+:mod:`analytic.profiles`, :func:`stress` (the field in body 2).
 """
 
 from analytic import profiles
@@ -15,6 +15,7 @@ from analytic.normal import (
 )
 from analytic.overlap import Fig5Data, OverlapSolution, fig5_data, overlapped
 from analytic.stick import CycleResult, StickSolution, cycle, solve_stick
+from analytic.stress import RuizResult, StressField, ruiz, stress, surface_stress
 
 __all__ = [
     "ConvergenceError",
@@ -29,6 +30,11 @@ __all__ = [
     "cycle",
     "load_curve",
     "profiles",
+    "RuizResult",
+    "StressField",
+    "ruiz",
+    "stress",
+    "surface_stress",
     "solve_normal",
     "solve_normal_fixed_rotation",
     "solve_stick",

@@ -17,6 +17,8 @@ from analytic.normal import _converge, _solve_fixed, _State, _StepFailed
 from analytic.profiles import Profile
 
 THETA_XTOL = 1e-13
+MOMENT_SETTLED = 1e-13  # |M(theta0) - M| / (P * span) at rounding level: no search (M = 0 on
+                        # a symmetric profile; its secant steps went to theta ~ 1e-11 and failed)
 
 
 def check_tipping(profile: Profile, P: float, M: float) -> float:
@@ -45,6 +47,8 @@ def _bracket(profile, P, A, M, theta0, step):
         raise ConvergenceError("fixed-rotation solve failed at the initial rotation",
                                {"theta": theta0})
     f0 = first[2] - M
+    if abs(f0) <= MOMENT_SETTLED * P * first[0].ell:  # theta0 carries M already (symmetry)
+        return (theta0, theta0), first
     direction = -np.sign(f0) if f0 != 0 else 1.0
     lo_t, lo_f = theta0, f0
     for _ in range(60):
@@ -67,8 +71,13 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[_
     theta0 = _initial_rotation(profile, xe)
     scale = abs(theta0) + A * P / profile.scale + 1e-12
     (t_lo, t_hi), _ = _bracket(profile, P, A, M, theta0, 0.25 * scale)
-    theta = brentq(lambda t: _moment_or_nan(profile, P, A, t) - M, t_lo, t_hi,
-                   xtol=THETA_XTOL * max(scale, 1.0), rtol=1e-14)
+    try:
+        theta = t_lo if t_lo == t_hi else brentq(
+            lambda t: _moment_or_nan(profile, P, A, t) - M, t_lo, t_hi,
+            xtol=THETA_XTOL * max(scale, 1.0), rtol=1e-14)
+    except ValueError as exc:  # a re-solve at a bracket end gave M - M(theta) the other sign
+        raise ConvergenceError(f"moment search lost its bracket: {exc}",
+                               {"theta_bracket": (t_lo, t_hi)}) from exc
     st, sys_ = _solve_fixed(profile, P, A, theta)
     try:
         return _converge(st, profile, A, M)

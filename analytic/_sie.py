@@ -71,6 +71,7 @@ def nodes_for(length: float, clearance: float) -> int:
 
 GRADING = 4.0
 KINK_ZONE = 0.25  # points this close to a kink (fraction of its pieces) get graded rules
+KINK_SAME = 1e-12  # ... but a point this close (x zone width) is evaluated as at the kink
 
 
 @lru_cache(maxsize=4096)
@@ -813,7 +814,9 @@ class System:
             cuts = [a, *kinks, b]
             for m, q in enumerate(kinks, start=1):
                 reach = KINK_ZONE * min(q - cuts[m - 1], cuts[m + 1] - q)
-                for j in np.flatnonzero((np.abs(x - q) < reach) & (x != q)):
+                # within KINK_SAME of the kink the graded nodes would round onto x itself
+                near = np.abs(x - q)
+                for j in np.flatnonzero((near < reach) & (near > KINK_SAME * (b - a))):
                     out.append((int(j), q, (cuts[m - 1], q, cuts[m + 1])))
         return out
 

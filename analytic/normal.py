@@ -18,8 +18,10 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import brentq
 
+from analytic import _validate as check
 from analytic._guess import overlap_guess
 from analytic._sie import Batch, Layout, System
+from analytic._vectorise import elementwise
 from analytic.errors import ConvergenceError, InputError
 from analytic.profiles import Profile
 
@@ -28,11 +30,14 @@ NEWTON_MAXIT = 40
 STEP_TOL = 1e-12            # ... and the next Newton step moves no unknown (edges / span) more
 POLISH_STEPS = 3            # steps allowed beyond NEWTON_TOL to meet STEP_TOL
 FLOOR_TOL = 1e-10          # accepted when rounding stalls Newton (zones ~1e-6 of the span)
+ULP_FLOOR = 64.0            # ... or below the residual change of this many ulps of the edges
 REFRESH_RATIO = 0.1         # a reused Jacobian gaining less than this per step is refreshed
 FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
+FD_ULPS = 64.0              # ... and the smallest step of an edge in units in the last place
 ADMISSIBLE_TOL = 1e-9       # relative tolerance of the p >= 0 and g >= 0 checks
 MAX_TOPOLOGY_CHANGES = 12
 START_FRACTION = 2e-3       # first-touch zone size relative to the local feature size
+FIRST_TOUCH_TRIES = 12      # ... divided by 10 per try while its load exceeds the target
 FIRST_LOAD_FRACTION = 1e-3  # first-touch load of a zone pinned at both ends (x target):
                             # the continuation then meets the next zones at small overlap
 
@@ -79,18 +84,19 @@ class NormalSolution:
         """Sum of the zone widths."""
         return float(sum(b - a for a, b in self.zones))
 
+    @elementwise
     def pressure(self, x: np.ndarray | float) -> np.ndarray:
         """Contact pressure ``p(x) >= 0`` (vectorised; 0 outside the zones)."""
-        x = np.atleast_1d(np.asarray(x, float))
         out = np.zeros(x.shape)
         inside = _inside(x, self._system.layout.edges)
         if np.any(inside):
             out[inside] = self._system.pressure_inside(x[inside])
         return out
 
+    @elementwise
     def gap(self, x: np.ndarray | float) -> np.ndarray:
         """Deformed gap ``g(x) >= 0`` (0 in the zones; ``+inf`` where the profile is undefined)."""
-        return deformed_gap(self._system, np.atleast_1d(np.asarray(x, float)))
+        return deformed_gap(self._system, x)
 
 
 def _inside(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
@@ -246,7 +252,7 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
     if not np.isfinite(norm):
         raise _NewtonFailed("non-finite residual at the start", {"residual": norm})
     J = st.jac if st.jac is not None and st.jac.shape == (F.size, z.size) else None
-    fresh, polish = False, 0
+    fresh, polish, floor = False, 0, FLOOR_TOL
     for it in range(NEWTON_MAXIT):
         if norm < NEWTON_TOL:
             dz = _polish_step(J, F) if polish < POLISH_STEPS else None
@@ -256,6 +262,7 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
         else:
             if J is None:
                 J, fresh = _jacobian(z, F, st, mode, profile, A), True
+                floor = _rounding_floor(J, st, mode)
             try:
                 dz = np.linalg.solve(J, -F)
             except np.linalg.LinAlgError as exc:
@@ -270,24 +277,42 @@ def _newton(st: _State, mode: _Mode, profile: Profile, A: float) -> tuple[_State
         if not polish and nt > REFRESH_RATIO * norm and not fresh:
             J = None  # stale Jacobian: refresh and retry from the same point
             continue
-        if not polish and nt > 0.5 * norm and norm < FLOOR_TOL:
+        if not polish and nt > 0.5 * norm and np.all(np.abs(F) < floor):
             break  # rounding floor reached with a fresh Jacobian: accept
-        if nt >= norm and nt > FLOOR_TOL:
+        if nt >= norm and not np.all(np.abs(Ft) < floor):
             raise _NewtonFailed("no descent", {"residual": norm, "iteration": it})
         step = zt - z
         if step @ step > 0:  # Broyden's rank-one update keeps the reused Jacobian current
             J = J + np.outer(Ft - F - J @ step, step) / (step @ step)
         st, z, F, fresh = trial, zt, Ft, False
-        if np.max(np.abs(dz)) < 1e-15 and nt < FLOOR_TOL:
+        if np.max(np.abs(dz)) < 1e-15 and np.all(np.abs(Ft) < floor):
             norm = nt
             break
         norm = nt
     else:
-        if norm >= FLOOR_TOL:
+        if not np.all(np.abs(F) < floor):
             raise _NewtonFailed("too many iterations", {"residual": norm,
                                                         "iteration": NEWTON_MAXIT})
     st.jac = J
     return st, F
+
+
+def _rounding_floor(J: np.ndarray, st: _State, mode: _Mode) -> np.ndarray:
+    """Residual level of each equation below which Newton may stop: FLOOR_TOL, or the change of
+    that residual when every free edge moves by ULP_FLOOR units in the last place of its
+    absolute position, if larger.  Edges are stored as x, so an edge a distance d past a kink
+    (a rounded corner's start at a small load, d ~ P^(2/3)) carries a relative load error
+    ~ eps |x| / d."""
+    free = _free_edges(st.layout, mode)
+    ulp = np.zeros(J.shape[1])
+    ulp[: free.size] = np.spacing(np.abs(st.layout.edges[free])) / st.ell
+    floor = np.maximum(FLOOR_TOL, ULP_FLOOR * (np.abs(J) @ ulp))
+    # not the interconnections: scaled by A P + |h'| span, not by the gaps' own size A P, they
+    # would accept a wrong load split between narrow zones far apart (double wedge, P = 1e-8)
+    lay = st.layout
+    first = max(lay.e - lay.n, 0) + int(mode.P is not None and lay.e >= lay.n)
+    floor[first: first + lay.n - 1] = FLOOR_TOL
+    return floor
 
 
 def _polish_step(J: np.ndarray | None, F: np.ndarray) -> np.ndarray | None:
@@ -302,19 +327,25 @@ def _polish_step(J: np.ndarray | None, F: np.ndarray) -> np.ndarray | None:
     return dz if np.max(np.abs(dz)) > STEP_TOL else None
 
 
-def _fd_steps(z: np.ndarray, st: _State, mode: _Mode) -> np.ndarray:
+def _fd_steps(z: np.ndarray, st: _State, mode: _Mode, profile: Profile) -> np.ndarray:
     """Finite-difference steps: an edge moves by FD_STEP times the width of its own zone (zones
-    may be many orders narrower than the span), other unknowns relative to their size."""
+    may be many orders narrower than the span) or its distance to the nearest kink, if smaller
+    (an edge just past a rounded corner's start at a small load), other unknowns relative to
+    their size."""
     h = FD_STEP * np.maximum(1.0, np.abs(z))
     free = _free_edges(st.layout, mode)
-    h[: free.size] = FD_STEP * st.layout.edge_widths()[free] / st.ell
+    edges = st.layout.edges[free]
+    smooth = np.minimum(st.layout.edge_widths()[free], profile.feature_distance(edges))
+    # but by at least FD_ULPS units in the last place of x (the edges are stored as x): a zone
+    # 4e-9 wide at x = 1 (a wedge apex at a small load) would step by 2 ulps
+    h[: free.size] = np.maximum(FD_STEP * smooth, FD_ULPS * np.spacing(np.abs(edges))) / st.ell
     return h
 
 
 def _jacobian(z, F, st, mode, profile, A) -> np.ndarray:
     """Forward differences, all columns in one batch evaluation with the discretisation frozen
     on the current layout (the base point is evaluated in the same batch)."""
-    steps = _fd_steps(z, st, mode)
+    steps = _fd_steps(z, st, mode, profile)
     states = [st]
     for j in range(z.size):
         zp = z.copy()
@@ -389,7 +420,7 @@ def _feature_size(profile: Profile, x: float, touches: list) -> float:
 def _initial_state(profile: Profile, A: float, theta: float, P_target: float) -> _State:
     touches = _touch_set(profile, theta)
     frac = START_FRACTION
-    for _ in range(8):
+    for _ in range(FIRST_TOUCH_TRIES):
         edges, pinned = [], []
         for lo, hi, _v in touches:
             size = frac * _feature_size(profile, 0.5 * (lo + hi), touches)
@@ -907,13 +938,11 @@ def _try_merge(st: _State, P_next: float, profile: Profile, A: float):
 # ---------------------------------------------------------------------------------------------
 # public API
 # ---------------------------------------------------------------------------------------------
-def _validate(profile: Profile, P: float, A: float) -> None:
-    if not isinstance(profile, Profile):
-        raise InputError(f"profile must be an analytic.profiles.Profile, got {type(profile)!r}")
-    if not np.isfinite(A) or A <= 0:
-        raise InputError(f"A={A!r} is not allowed: need A = 4(1 - nu^2)/E > 0")
-    if not np.isfinite(P) or P <= 0:
-        raise InputError(f"P={P!r} is not allowed: need a finite load P > 0")
+def _validate(profile: Profile, P: float, A: float) -> tuple[float, float]:
+    """Refuse a non-profile, or P, A not finite and > 0 (:mod:`analytic._validate`)."""
+    check.instance("profile", profile, Profile, "an analytic.profiles.Profile")
+    A = check.positive("A", A, "compliance A = 4(1 - nu^2)/E")
+    return check.positive("P", P, "load"), A
 
 
 def _validate_theta(profile: Profile, theta: float) -> None:
@@ -930,8 +959,8 @@ def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
     ``M=None``: vertical indentation (rotation locked; the moment is an output).  ``M`` given:
     applied moment about x = 0; the rigid rotation ``theta`` is an output.
     """
-    P, A = float(P), float(A)
-    _validate(profile, P, A)
+    P, A = _validate(profile, P, A)
+    M = check.optional_real("M", M, "a finite moment, or None for vertical indentation")
     if M is None:
         st, sys_ = _solve_fixed(profile, P, A, 0.0)
         return _finish(st, sys_, profile, A, "vertical")
@@ -960,10 +989,10 @@ def _solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[_S
 def solve_normal_fixed_rotation(profile: Profile, P: float, A: float, theta: float
                                 ) -> NormalSolution:
     """Normal problem with the rigid rotation prescribed (the stick-zone reduced problem)."""
-    P, A = float(P), float(A)
-    _validate(profile, P, A)
-    _validate_theta(profile, float(theta))
-    st, sys_ = _solve_fixed(profile, P, A, float(theta))
+    P, A = _validate(profile, P, A)
+    theta = check.real("theta", theta)
+    _validate_theta(profile, theta)
+    st, sys_ = _solve_fixed(profile, P, A, theta)
     return _finish(st, sys_, profile, A, "fixed-rotation")
 
 
@@ -975,9 +1004,10 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     rotation is prescribed (the stick-zone problems of stage 2/3).  Otherwise vertical indentation.
     Results are returned in the order of ``loads``.
     """
-    loads = np.asarray(loads, float)
-    if loads.ndim != 1 or loads.size == 0:
-        raise InputError("loads must be a non-empty 1-D sequence")
+    loads = check.vector("loads", loads, 1, lambda v: bool(np.all(v > 0)),
+                         "a non-empty 1-D sequence of finite loads > 0")
+    _, A = _validate(profile, loads[0], A)
+    M, theta = check.optional_real("M", M), check.optional_real("theta", theta)
     if M is not None and theta is not None:
         raise InputError("give either M (applied moment) or theta (prescribed rotation), not both")
     order = np.argsort(loads)
@@ -986,8 +1016,6 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
         for i in order:
             out[i] = solve_normal(profile, loads[i], A, M)
         return out  # type: ignore[return-value]
-    for P in loads:
-        _validate(profile, float(P), A)
     th = 0.0 if theta is None else float(theta)
     _validate_theta(profile, th)
     mode = "vertical" if theta is None else "fixed-rotation"

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+from analytic import _validate as check
 from analytic._sie import Layout, System
 from analytic.errors import InputError
 from analytic.normal import load_curve, zone_loads
@@ -88,10 +89,9 @@ def _load_for(profile: Profile, A: float, delta: float, theta: float):
 
 def overlapped(profile: Profile, P: float, A: float, theta: float = 0.0) -> OverlapSolution:
     """Free-interpenetration estimate of the contact zones at load P (paper Section 6)."""
-    if not np.isfinite(P) or P <= 0:
-        raise InputError(f"P={P!r} is not allowed: need P > 0")
-    if not np.isfinite(A) or A <= 0:
-        raise InputError(f"A={A!r} is not allowed: need A > 0")
+    check.instance("profile", profile, Profile, "an analytic.profiles.Profile")
+    P, A = check.positive("P", P, "load"), check.positive("A", A, "compliance")
+    theta = check.real("theta", theta)
     d_hi = 1e-6 * profile.scale
     for _ in range(200):
         if _load_for(profile, A, d_hi, theta)[0] >= P:
@@ -130,11 +130,14 @@ def fig5_data(phi1: float, phi2: float, loads: Sequence[float] | None = None, c:
 
     Default loads: 40 values from small to a zone width of about 0.6 c.
     """
+    phi1, phi2 = check.angle("phi1", phi1), check.angle("phi2", phi2)
+    c, A = check.positive("c", c), check.positive("A", A, "compliance")
     prof = double_wedge(c, phi1, phi2)
     if loads is None:
         P_ref = c * np.tan(min(phi1, phi2)) / A
         loads = np.geomspace(1e-3, 0.6, 40) * P_ref
-    loads = np.asarray(loads, float)
+    loads = check.vector("loads", loads, 1, lambda v: bool(np.all(v > 0)),
+                         "None or a non-empty 1-D sequence of finite loads > 0")
     actual = np.array([s.zones[-1][1] - s.zones[-1][0] for s in load_curve(prof, loads, A)])
     ovl = np.array([(lambda z: z[-1][1] - z[-1][0])(overlapped(prof, P, A).zones)
                     for P in loads])

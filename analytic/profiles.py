@@ -20,11 +20,13 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.optimize import brentq
 
-from analytic.errors import InputError
+from analytic import _validate as check
 
 Func = Callable[[np.ndarray], np.ndarray]
 INF = float("inf")
 MINIMA_MEMO_SIZE = 256  # rotations remembered per profile (a moment solve visits ~50)
+FLAT_TILT = 1e-12  # a flat face tilted by less than this (height change / scale) stays flat,
+                   # like the first-touch tolerance: its ends touch together (moment searches)
 
 
 @dataclass(frozen=True)
@@ -155,6 +157,19 @@ class Profile:
         return tuple(sorted(set(self.corners) | set(self.ridges)))
 
     @cached_property
+    def _features(self) -> np.ndarray:
+        return np.array(sorted(set(self.kinks) | set(self.corners)), float)
+
+    def feature_distance(self, x: np.ndarray) -> np.ndarray:
+        """Distance from each x to the nearest kink or corner (``inf`` if there is none, or where
+        x sits on one): the length over which h0 stays smooth around x."""
+        x = np.asarray(x, dtype=float)
+        if self._features.size == 0:
+            return np.full(x.shape, INF)
+        d = np.min(np.abs(x[..., None] - self._features), axis=-1)
+        return np.where(d > 0, d, INF)
+
+    @cached_property
     def tilt_limits(self) -> tuple[float, float]:
         """Open range of rotations theta for which ``h0 - theta x`` is bounded below and rises
         towards both ends: the slopes of unbounded straight end pieces (a wedge's faces), else
@@ -180,7 +195,8 @@ class Profile:
     def local_minima(self, theta: float = 0.0) -> list[tuple[float, float, float]]:
         """Local minima of ``h0(x) - theta x`` as ``(x_lo, x_hi, value)``.
 
-        A flat piece at ``theta == 0`` gives an interval; every other minimum is a point.
+        A flat piece at ``theta == 0`` (or tilted by less than FLAT_TILT) gives an interval;
+        every other minimum is a point.
         Memoised per theta (the solver asks for the same rotation many times).
         """
         key = float(theta)
@@ -199,6 +215,7 @@ class Profile:
 
     def with_lift(self, lift: float) -> Profile:
         """The profile raised by ``lift`` (for union members)."""
+        lift = check.real("lift", lift)
         return replace(self, pieces=tuple(p.shifted(lift) for p in self.pieces))
 
 
@@ -208,7 +225,7 @@ class Profile:
 def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]:
     lo = pc.lo if np.isfinite(pc.lo) else _far(prof, -1)
     hi = pc.hi if np.isfinite(pc.hi) else _far(prof, +1)
-    if pc.flat and theta == 0.0:
+    if pc.flat and abs(theta) * (hi - lo) <= FLAT_TILT * prof.scale:
         return [(pc.lo, pc.hi, float(pc.h(np.array([pc.lo]))[0]))]
     xs = np.linspace(lo, hi, 401)
     f = pc.h(xs) - theta * xs
@@ -218,8 +235,19 @@ def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]
         out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
     for end, x_end, inner in ((0, pc.lo, f[1]), (-1, pc.hi, f[-2])):
         if np.isfinite(x_end) and f[end] <= inner and _end_is_low(prof, k, end):
-            out.append((x_end, x_end, float(f[end])))
+            xm = _inside_end_min(pc, theta, x_end, xs[1] if end == 0 else xs[-2])
+            out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
     return out
+
+
+def _inside_end_min(pc: Piece, theta: float, x_end: float, x_next: float) -> float:
+    """A piece end that samples lower than its neighbour sample, or the minimum between them
+    when ``h0 - theta x`` still falls going inwards from the end (a tilted face meeting a
+    rounded corner: the minimum lies on the corner, closer than one sample to the kink)."""
+    inward = np.sign(x_next - x_end)
+    if inward * (float(pc.dh(np.array([x_end]))[0]) - theta) >= 0:
+        return x_end
+    return _refine_min(pc, theta, min(x_end, x_next), max(x_end, x_next))
 
 
 def _far(prof: Profile, side: int) -> float:
@@ -259,11 +287,11 @@ def _dedupe_minima(found: list[tuple], tol: float) -> list[tuple[float, float, f
 # ---------------------------------------------------------------------------------------------
 # constructors
 # ---------------------------------------------------------------------------------------------
-def _check_positive(name: str, value: float) -> float:
-    value = float(value)
-    if not np.isfinite(value) or value <= 0.0:
-        raise InputError(f"{name}={value!r} is not allowed: need a finite value > 0")
-    return value
+def _finite_coeffs(name: str, value: float, coeffs: Sequence[float]) -> None:
+    """Refuse parameters whose polynomial coefficients overflow (e.g. ``center = 1e200``)."""
+    if not all(np.isfinite(c) for c in coeffs):
+        raise check.refuse(name, value, "a magnitude whose profile coefficients stay finite "
+                           f"(got {[float(c) for c in coeffs]})")
 
 
 def _poly_piece(coeffs: Sequence[float], lo: float, hi: float, flat: bool = False) -> Piece:
@@ -295,8 +323,11 @@ def _line(slope: float, x0: float, lo: float, hi: float) -> Piece:
 
 def cylinder(R: float, center: float = 0.0, lift: float = 0.0) -> Profile:
     """Cylinder (parabolic approximation): ``h0 = (x - center)^2 / (2R) + lift``."""
-    R = _check_positive("R", R)
-    pc = _poly_piece([0.5 / R, -center / R, center**2 / (2 * R) + lift], -INF, INF)
+    R, center, lift = check.positive("R", R), check.real("center", center), check.real("lift", lift)
+    with np.errstate(all="ignore"):  # an overflow is refused just below
+        coeffs = [0.5 / R, -center / R, np.float64(center)**2 / (2 * R) + lift]
+    _finite_coeffs("center", center, coeffs)
+    pc = _poly_piece(coeffs, -INF, INF)
     return Profile((pc,), (), (), R, "cylinder", {"R": R, "center": center, "lift": lift})
 
 
@@ -324,11 +355,12 @@ def flat_punch(left: float, right: float, corner_radius: float = 0.0, lift: floa
     circle, ``h0 = +inf`` beyond it) or ``"parabolic"`` (``h0 = (|x| - b)^2 / (2 rho)``, the
     form used by Ciavarella, Hills & Monno 1998 for the closed-form P(a, b) relation).
     """
-    left, right = float(left), float(right)
-    if not right > left:
-        raise InputError(f"flat_punch: right={right!r} must exceed left={left!r}")
-    if corner_radius < 0:
-        raise InputError(f"corner_radius={corner_radius!r} is not allowed: need >= 0")
+    left = check.real("left", left)
+    right = check.real("right", right, f"a finite number > left={left!r} (with right - left "
+                       "finite)", lambda v: v > left and np.isfinite(v - left))
+    corner_radius = check.non_negative("corner_radius", corner_radius)
+    lift = check.real("lift", lift)
+    corner_shape = check.choice("corner_shape", corner_shape, ("circular", "parabolic"))
     face = _poly_piece([lift], left, right, flat=True)
     params = {"left": left, "right": right, "corner_radius": corner_radius, "lift": lift,
               "corner_shape": corner_shape}
@@ -337,25 +369,28 @@ def flat_punch(left: float, right: float, corner_radius: float = 0.0, lift: floa
         return Profile((face,), (left, right), (), scale, "flat_punch", params)
     rho = float(corner_radius)
     if corner_shape == "parabolic":
-        lp = _poly_piece([0.5 / rho, -left / rho, left**2 / (2 * rho) + lift], -INF, left)
-        rp = _poly_piece([0.5 / rho, -right / rho, right**2 / (2 * rho) + lift], right, INF)
-    elif corner_shape == "circular":
+        with np.errstate(all="ignore"):  # an overflow is refused just below
+            cl = [0.5 / rho, -left / rho, np.float64(left)**2 / (2 * rho) + lift]
+            cr = [0.5 / rho, -right / rho, np.float64(right)**2 / (2 * rho) + lift]
+        _finite_coeffs("corner_radius", corner_radius, cl + cr)
+        lp, rp = _poly_piece(cl, -INF, left), _poly_piece(cr, right, INF)
+    else:
         lp = _arc(rho, left, -1, left - rho, left, lift)
         rp = _arc(rho, right, +1, right, right + rho, lift)
-    else:
-        raise InputError(f"corner_shape={corner_shape!r}: allowed 'circular' or 'parabolic'")
+        ends = (left - rho, right + rho)  # h0 = +inf beyond the quarter circles
+        return Profile((lp, face, rp), ends, (left, right), scale, "flat_punch", params)
     return Profile((lp, face, rp), (), (left, right), scale, "flat_punch", params)
 
 
 def wedge(angle_left: float, angle_right: float, apex: float = 0.0, lift: float = 0.0) -> Profile:
     """Wedge with its apex at ``apex``: ``h0 = tan(angle_left)(apex - x)`` left of the apex and
     ``tan(angle_right)(x - apex)`` right of it (angles in radians, 0 < angle < pi/2)."""
-    for name, ang in (("angle_left", angle_left), ("angle_right", angle_right)):
-        if not 0.0 < ang < np.pi / 2:
-            raise InputError(f"{name}={ang!r} is not allowed: need 0 < angle < pi/2 "
-                             "(a wedge that opens downwards never touches)")
+    angle_left, angle_right = check.angle("angle_left", angle_left), check.angle(
+        "angle_right", angle_right)
+    apex, lift = check.real("apex", apex), check.real("lift", lift)
     tl, tr = np.tan(angle_left), np.tan(angle_right)
     pl = _poly_piece([-tl, tl * apex + lift], -INF, apex)
+    _finite_coeffs("apex", apex, [tl * apex + lift, -tr * apex + lift])
     pr = _poly_piece([tr, -tr * apex + lift], apex, INF)
     return Profile((pl, pr), (), (apex,), 1.0, "wedge",
                    {"angle_left": angle_left, "angle_right": angle_right, "apex": apex,
@@ -365,9 +400,14 @@ def wedge(angle_left: float, angle_right: float, apex: float = 0.0, lift: float 
 def biquadratic(c: float, R: float) -> Profile:
     """Gladwell's bi-quadratic punch ``h0 = (x^2 - c^2)^2 / (8 R c^2)``: touches at ``x = +-c``
     with curvature radius R there."""
-    c, R = _check_positive("c", c), _check_positive("R", R)
-    k = 1.0 / (8 * R * c**2)
-    pc = _poly_piece([k, 0.0, -2 * k * c**2, 0.0, k * c**4], -INF, INF)
+    c, R = check.positive("c", c), check.positive("R", R)
+    with np.errstate(all="ignore"):  # an overflow or underflow is refused just below
+        c2 = np.float64(c) ** 2
+        k = 1.0 / (8 * R * c2)
+        coeffs = [k, 0.0, -2 * k * c2, 0.0, k * c2 * c2, 1.0 / k]
+    _finite_coeffs("c", c, coeffs)
+    coeffs = coeffs[:-1]
+    pc = _poly_piece(coeffs, -INF, INF)
     return Profile((pc,), (), (), c, "biquadratic", {"c": c, "R": R})
 
 
@@ -376,10 +416,8 @@ def double_wedge(c: float, phi_inner: float, phi_outer: float) -> Profile:
 
     ``h0 = tan(phi_inner)(c - |x|)`` for ``|x| <= c`` and ``tan(phi_outer)(|x| - c)`` beyond.
     """
-    c = _check_positive("c", c)
-    for name, ang in (("phi_inner", phi_inner), ("phi_outer", phi_outer)):
-        if not 0.0 < ang < np.pi / 2:
-            raise InputError(f"{name}={ang!r} is not allowed: need 0 < angle < pi/2")
+    c = check.positive("c", c)
+    phi_inner, phi_outer = check.angle("phi_inner", phi_inner), check.angle("phi_outer", phi_outer)
     t1, t2 = np.tan(phi_inner), np.tan(phi_outer)
     pieces = (_line(-t2, -c, -INF, -c), _line(t1, -c, -c, 0.0),
               _line(-t1, c, 0.0, c), _line(t2, c, c, INF))
@@ -392,21 +430,19 @@ def tabulated(x: Sequence[float], h: Sequence[float], kinks: Sequence[float] = (
 
     The profile is undefined outside ``[x[0], x[-1]]``; contact must stay inside the table.
     """
-    x, h = np.asarray(x, float), np.asarray(h, float)
-    if x.ndim != 1 or x.shape != h.shape or x.size < 4:
-        raise InputError(f"tabulated: need 1-D x and h of equal length >= 4, got {x.shape}, "
-                         f"{h.shape}")
-    if np.any(np.diff(x) <= 0) or not np.all(np.isfinite(h)):
-        raise InputError("tabulated: x must be strictly increasing and h finite")
-    if np.any(h < 0):
-        raise InputError(f"tabulated: h0 must be >= 0 (min {h.min()!r})")
-    ks = sorted(k for k in kinks if x[0] < k < x[-1])
+    x = check.vector("x", x, 4, lambda v: bool(np.all(np.diff(v) > 0)),
+                     "a strictly increasing 1-D sequence of at least 4 finite numbers")
+    h = check.vector("h", h, 4, lambda v: v.size == x.size and bool(np.all(v >= 0)),
+                     f"{x.size} finite values h0 >= 0 (one per x)")
+    kinks = check.vector("kinks", kinks, 0, need="a 1-D sequence of finite numbers")
+    ks = sorted(float(k) for k in kinks if x[0] < k < x[-1])
     cuts = [x[0], *ks, x[-1]]
     pieces = []
     for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
         m = (x >= lo - 1e-12) & (x <= hi + 1e-12)
         if m.sum() < 2:
-            raise InputError(f"tabulated: fewer than 2 samples between kinks {lo} and {hi}")
+            raise check.refuse("kinks", kinks.tolist(), "at least 2 samples of x between "
+                               f"consecutive kinks (none between {lo!r} and {hi!r})")
         cs = CubicSpline(x[m], h[m], bc_type="natural" if m.sum() > 2 else "not-a-knot")
         ext = 0.1 * (hi - lo)
         pieces.append(Piece(lo, hi, cs, cs.derivative(1), cs.derivative(2), (lo - ext, hi + ext)))
@@ -423,7 +459,9 @@ def union(*profiles: Profile) -> Profile:
     The members' lifts are relative heights; the result is shifted so that ``min h0 = 0``.
     """
     if len(profiles) < 1:
-        raise InputError("union: need at least one profile")
+        raise check.refuse("profiles", profiles, "at least one analytic.profiles.Profile")
+    for i, prof in enumerate(profiles):
+        check.instance(f"profiles[{i}]", prof, Profile, "an analytic.profiles.Profile")
     cands = [pc for prof in profiles for pc in prof.pieces]
     cuts = _union_cuts(cands)
     segs: list[Piece] = []

@@ -3,9 +3,9 @@
 The Jager-Ciavarella principle (paper Section 5, generalised) turns every stick-zone problem into
 a normal problem at a reduced load, solved at the *rotation* of stage 1 (not its moment).
 
-Conventions (DESIGN.md): ``p >= 0`` compressive; ``q`` is the shear on body 1 in the direction of
-``Q`` with ``int q dx = Q``; the relative slip ``s`` is the tangential displacement of body 1
-relative to body 2 accumulated in the current stage (positive along +x).
+Conventions (docs/conventions.md): ``p >= 0`` compressive; ``q`` is the shear on body 1 in the
+direction of ``Q`` with ``int q dx = Q``; the relative slip ``s`` is the tangential displacement
+of body 1 relative to body 2 accumulated in the current stage (positive along +x).
 
 Derivation and signs (done once, here).  With ``u[f](x) = -(A/pi) int f(s) ln|x - s| ds`` and
 ``h = h0 - theta x``, the stage-1 solution satisfies ``u[p] = delta - h`` on the contact set ``L``,
@@ -61,6 +61,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from analytic import _validate as check
+from analytic._vectorise import elementwise
 from analytic.errors import ConvergenceError, InputError
 from analytic.normal import NormalSolution, load_curve
 from analytic.profiles import Profile
@@ -138,13 +140,14 @@ class StickSolution:
         """Signed multiple of ``mu (p - p_S)`` added in this stage: ``direction * (1 or 2)``."""
         return self.direction * (1.0 if self.stage == 2 else 2.0)
 
+    @elementwise
     def shear(self, x: np.ndarray | float) -> np.ndarray:
         """Shear ``q(x)`` on body 1 along +x (vectorised; 0 outside the contact zones).
 
         Stage 2: ``sigma mu [p(x; P) - p_S(x; P*)]``;
         stage 3: ``q0 - 2 sigma mu [p(x; P) - p_S(x; P**)]``.
         """
-        return self._pressure_and_shear(np.atleast_1d(np.asarray(x, float)))[1]
+        return self._pressure_and_shear(x)[1]
 
     def _pressure_and_shear(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``p(x)`` and ``q(x)``: the stage-1 pressure is evaluated once for the whole history."""
@@ -157,6 +160,7 @@ class StickSolution:
             s = s.previous
         return p, q
 
+    @elementwise
     def slip(self, x: np.ndarray | float) -> np.ndarray:
         """Relative slip of body 1 w.r.t. body 2 accumulated in this stage (vectorised).
 
@@ -164,7 +168,6 @@ class StickSolution:
         zero in the stick zones; 0 outside the contact zones.  ``nan`` in gross sliding, where
         the rigid slip is unbounded.
         """
-        x = np.atleast_1d(np.asarray(x, float))
         inside = _inside(x, self.normal.zones)
         out = np.zeros(x.shape)
         if self.reduced is None:
@@ -218,22 +221,16 @@ class CycleResult:
 # validation
 # ---------------------------------------------------------------------------------------------
 def _check_normal(normal: NormalSolution) -> None:
-    if not isinstance(normal, NormalSolution):
-        raise InputError(f"normal must be an analytic.NormalSolution, got {type(normal)!r}")
+    check.instance("normal", normal, NormalSolution, "an analytic.NormalSolution")
 
 
 def _check_mu(mu: float) -> float:
-    mu = float(mu)
-    if not (np.isfinite(mu) and mu > 0):
-        raise InputError(f"mu={mu!r} is not allowed: need a finite friction coefficient mu > 0")
-    return mu
+    return check.positive("mu", mu, "friction coefficient")
 
 
 def _check_tangential(name: str, value: float, limit: float, allow_full_slip: bool) -> float:
     """``|value| < limit = mu P``; ``= limit`` only with ``allow_full_slip``; never above."""
-    value = float(value)
-    if not np.isfinite(value):
-        raise InputError(f"{name}={value!r} is not allowed: need a finite force")
+    value = check.real(name, value, "a finite force")
     if abs(value) > limit * (1 + GROSS_SLIP_REL):
         raise InputError(f"{name}={value!r} is not allowed: need |{name}| <= mu P = {limit:.6g} "
                          "(beyond it the interface cannot hold the body: no static state)")
@@ -244,12 +241,9 @@ def _check_tangential(name: str, value: float, limit: float, allow_full_slip: bo
 
 
 def _check_stage3_load(Q: float, Q0: float) -> float:
-    Q = float(Q)
     lo, hi = sorted((-Q0, Q0))
-    if not (np.isfinite(Q) and lo <= Q <= hi):
-        raise InputError(f"Q={Q!r} is not allowed in stage 3: need Q between -Q0 and Q0 = {Q0!r}"
-                         f" (the load comes back from Q0 towards -Q0)")
-    return Q
+    return check.real("Q", Q, f"Q between -Q0 and Q0 = {Q0!r} in stage 3 (the load comes back "
+                      "from Q0 towards -Q0)", lambda v: lo <= v <= hi)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -459,6 +453,7 @@ def solve_stick(normal: NormalSolution, mu: float, Q: float, Q0: float | None = 
     """
     _check_normal(normal)
     mu = _check_mu(mu)
+    allow_full_slip = check.flag("allow_full_slip", allow_full_slip)
     limit = mu * normal.P
     if Q0 is None:
         Q = _check_tangential("Q", Q, limit, allow_full_slip)
@@ -498,12 +493,10 @@ def cycle(normal: NormalSolution, mu: float, Q0: float, n: int = 100) -> CycleRe
     """
     _check_normal(normal)
     mu = _check_mu(mu)
-    Q0 = float(Q0)
-    if not (np.isfinite(Q0) and 0 < Q0 < mu * normal.P * (1 - GROSS_SLIP_REL)):
-        raise InputError(f"Q0={Q0!r} is not allowed in a cycle: need 0 < Q0 < mu P = "
-                         f"{mu * normal.P:.6g} (Q0 = mu P is gross sliding, W unbounded)")
-    if int(n) != n or n < 7:
-        raise InputError(f"n={n!r} is not allowed: need an integer n >= 7 (two samples per stage)")
+    Q0 = check.real("Q0", Q0, f"0 < Q0 < mu P = {mu * normal.P:.6g} in a cycle (Q0 = mu P is "
+                    "gross sliding, W unbounded)",
+                    lambda v: 0 < v < mu * normal.P * (1 - GROSS_SLIP_REL))
+    n = check.integer("n", n, 7)
     Q, stage, frac = _cycle_loads(Q0, int(n))
     P_red = normal.P - frac * Q0 / mu
     uniq, inv = np.unique(P_red, return_inverse=True)

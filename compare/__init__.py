@@ -3,8 +3,11 @@
 Public API
 ----------
 Case, FemSettings, load_case(name_or_path), list_cases(), read_case(path), case_from_dict(doc)
+Case.from_profile(profile, P, A=... or E=..., nu=..., mu=..., Q0=0, M=None, **fem) -> Case;
+    case.to_dict() / case.to_toml() give it back as a case file
 run_case(case, vtk_dir=None) -> CaseResult (metrics, checks, zones, samples, passed)
 convergence(case, levels=(0, 1, 2), ...) -> ConvergenceStudy
+verify(case, result_path) -> CaseResult: an external FE result (docs/external.md) vs analytic
 compare.testing.assert_agrees(result, edge_rtol=..., stick_rtol=..., pressure_rtol=...)
 compare.report.write_report(cases, out_dir, convergence_cases=None, fig5=True) -> summary dict
 CaseError: bad case input (CLI exit code 2).
@@ -14,6 +17,8 @@ from compare.cases import Case, FemSettings, case_from_dict, list_cases, load_ca
 from compare.convergence import ConvergenceStudy, convergence
 from compare.errors import CaseError
 from compare.run import CaseResult, Check, run_case
+from compare.verify import verify
 
 __all__ = ["Case", "CaseError", "CaseResult", "Check", "ConvergenceStudy", "FemSettings",
-           "case_from_dict", "convergence", "list_cases", "load_case", "read_case", "run_case"]
+           "case_from_dict", "convergence", "list_cases", "load_case", "read_case", "run_case",
+           "verify"]

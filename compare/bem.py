@@ -3,7 +3,7 @@
 This module is the project's *independent* check of the analytic singular-integral
 solver: it takes plain callables and imports neither ``analytic`` nor ``fem``.
 
-Model (conventions of DESIGN.md): two elastically similar plane-strain half-planes with
+Model (conventions of docs/conventions.md): two elastically similar plane-strain half-planes with
 composite compliance ``A = 4 (1 - nu**2) / E``, pressure ``p >= 0`` compressive, forces
 per unit width.
 
@@ -278,14 +278,18 @@ def _check_moment_carried(grid: Grid, h: np.ndarray, P: float, M: float | None) 
 def _normal_multilevel(
     h0: Profile, grid: Grid, P: float, A: float, M: float | None
 ) -> tuple[np.ndarray, np.ndarray, float, float, int]:
-    """Active-set solve, warm-started from the solve on a grid of ``n/2`` panels."""
+    """Active-set solve, warm-started from the solve on a grid of ``n/2`` panels (cold, from
+    every contactable panel, when that coarser solve fails: a contact narrower than a couple
+    of coarse panels can make the coarse active set cycle)."""
     h = _sample_profile(h0, grid)
+    start = np.isfinite(h)
     if grid.n > COARSEST_WARM_START and grid.n % 2 == 0:
         coarse = Grid(grid.x0, grid.x1, grid.n // 2)
-        coarse_active = _normal_multilevel(h0, coarse, P, A, M)[0]
-        start = np.repeat(coarse_active, 2) & np.isfinite(h)
-    else:
-        start = np.isfinite(h)
+        try:
+            coarse_active = _normal_multilevel(h0, coarse, P, A, M)[0]
+            start = np.repeat(coarse_active, 2) & np.isfinite(h)
+        except RuntimeError:
+            pass
     return _normal_active_set(grid.influence(A), grid, h, P, A, M, start)
 
 

@@ -9,13 +9,18 @@ name or a path.
 
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from dataclasses import dataclass, field, replace
 from importlib import resources
+from numbers import Integral
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from analytic import _validate as check
 from analytic import profiles
 from analytic.errors import InputError as AnalyticInputError
 from analytic.profiles import Profile
@@ -45,6 +50,17 @@ SAMPLE_KEYS = {"stage2": [0.5, 0.75, 1.0], "stage3": [0.0, -0.5, -1.0]}
 FEM_KEYS = {"level": 1, "order": 1, "mesh_file": "", "penalty_factor": 100.0,
             "augmented": False, "n_normal": 10, "n_tangential": 8, "size_factor": 8.0,
             "window_margin": 0.05, "growth": 1.2}
+#: Allowed ranges of the numeric FE settings (test, what is allowed).
+FEM_RANGES = {
+    "level": (lambda v: -3 <= v <= 6, "-3 <= level <= 6"),
+    "order": (lambda v: v in (1, 2), "1 or 2"),
+    "penalty_factor": (lambda v: v > 0, "> 0"),
+    "n_normal": (lambda v: v >= 1, ">= 1"),
+    "n_tangential": (lambda v: v >= 1, ">= 1"),
+    "size_factor": (lambda v: v >= 2, ">= 2"),
+    "window_margin": (lambda v: 0 <= v <= 1, "0 <= window_margin <= 1"),
+    "growth": (lambda v: 1 < v <= 2, "1 < growth <= 2"),
+}
 DEFAULT_NU = 0.3  # used to split a given composite compliance A into (E, nu) for the FE side
 
 
@@ -100,6 +116,10 @@ class Case:
     description: str = ""
     source: str = ""
 
+    def __post_init__(self) -> None:
+        for key, value in _checked_fields(self).items():
+            object.__setattr__(self, key, value)
+
     @property
     def A(self) -> float:
         """Composite compliance ``4 (1 - nu^2) / E``."""
@@ -112,6 +132,50 @@ class Case:
             raise CaseError(f"unknown FE setting(s) {sorted(bad)}: allowed {sorted(FEM_KEYS)}")
         return replace(self, fem=replace(self.fem, **changes))
 
+    @classmethod
+    def from_profile(cls, profile: Profile, P: float, *, mu: float, A: float | None = None,
+                     E: float | None = None, nu: float | None = None, Q0: float = 0.0,
+                     M: float | None = None, name: str = "case", description: str = "",
+                     samples: dict | None = None, tolerances: dict | None = None,
+                     **fem: Any) -> Case:
+        """A case from an :mod:`analytic.profiles` object, without writing TOML.
+
+        Give the material as ``A`` (composite compliance ``4 (1 - nu^2) / E``; ``nu`` defaults
+        to 0.3 for the FE side) or as ``E`` and ``nu``.  ``samples`` and ``tolerances`` are the
+        case file's ``[samples]`` (fractions of Q0) and ``[tolerances]`` tables; ``**fem`` are
+        FE settings (``level=2, order=2, ...``, see :class:`FemSettings`).  Everything is
+        validated as a case file is (:class:`CaseError` names the bad value).  The profile must
+        describe itself (``profile.name`` and ``profile.params``, as the constructors of
+        :mod:`analytic.profiles` record them): the case is rebuilt from that description, so
+        it round-trips through :meth:`to_dict` / :meth:`to_toml`, and a description that does
+        not reproduce ``profile.h0`` is a :class:`CaseError`.
+        """
+        material = {k: v for k, v in (("A", A), ("E", E), ("nu", nu)) if v is not None}
+        load = {"P": P, "mu": mu, "Q0": Q0, **({} if M is None else {"M": M})}
+        doc = {"name": name, "description": description, "profile": profile_spec(profile),
+               "material": material, "load": load, "samples": samples or {}, "fem": fem,
+               "tolerances": tolerances or {}}
+        case = case_from_dict(doc, name=name, src=f"Case.from_profile({name})")
+        _check_same_gap(profile, case.profile)
+        return case
+
+    def to_dict(self) -> dict:
+        """The case in the case-file schema (``case_from_dict(case.to_dict())`` rebuilds it)."""
+        load = {"P": self.P, "mu": self.mu, "Q0": self.Q0}
+        if self.M is not None:
+            load["M"] = self.M
+        doc = {"name": self.name, "description": self.description, "profile": self.profile_spec,
+               "material": {"E": self.E, "nu": self.nu}, "load": load,
+               "fem": vars(self.fem).copy(), "tolerances": dict(self.tolerances)}
+        if self.Q0 > 0:
+            doc["samples"] = {"stage2": [q / self.Q0 for q in self.stage2],
+                              "stage3": [q / self.Q0 for q in self.stage3]}
+        return doc
+
+    def to_toml(self) -> str:
+        """The case as a TOML case file (``read_case`` of the written text rebuilds it)."""
+        return toml_text(self.to_dict())
+
     def summary(self) -> dict:
         """Plain-data description (for JSON / reports)."""
         return {"name": self.name, "description": self.description, "profile": self.profile_spec,
@@ -119,6 +183,46 @@ class Case:
                 "Q0": self.Q0, "M": self.M, "stage2": list(self.stage2),
                 "stage3": list(self.stage3), "fem": vars(self.fem).copy(),
                 "tolerances": dict(self.tolerances), "source": self.source}
+
+
+def _checked_fields(case: Case) -> dict[str, Any]:
+    """The numeric fields of a :class:`Case` as floats / tuples, or :class:`CaseError` naming
+    the field, its value and what is allowed (the checks of :mod:`analytic._validate`)."""
+    try:
+        check.instance("profile", case.profile, Profile, "an analytic.profiles.Profile")
+        check.instance("fem", case.fem, FemSettings, "a compare.cases.FemSettings")
+        if not isinstance(case.name, str) or not case.name:
+            raise check.refuse("name", case.name, "a non-empty string")
+        P, mu = check.positive("P", case.P, "load"), check.positive("mu", case.mu)
+        out = {"P": P, "mu": mu, "E": check.positive("E", case.E, "Young's modulus"),
+               "nu": check.real("nu", case.nu, "-1 < nu < 0.5", lambda v: -1 < v < 0.5),
+               "Q0": check.real("Q0", case.Q0, f"0 <= Q0 <= mu*P = {mu * P:g}",
+                                lambda v: 0 <= v <= mu * P * (1 + 1e-12)),
+               "M": check.optional_real("M", case.M, "a finite moment or None")}
+        _check_fem_settings(case.fem)
+        for key in ("stage2", "stage3"):
+            out[key] = tuple(check.vector(key, getattr(case, key), 0).tolist())
+        if not isinstance(case.tolerances, dict):
+            raise check.refuse("tolerances", case.tolerances, "a dict of tolerance names to values")
+        for key, val in case.tolerances.items():
+            check.positive(f"tolerances.{key}", val)
+    except AnalyticInputError as exc:
+        raise CaseError(f"Case {case.name!r}: {exc}") from None
+    return out
+
+
+def _check_fem_settings(fem: FemSettings) -> None:
+    """Types (those of :data:`FEM_KEYS`) and :data:`FEM_RANGES` of constructed FE settings."""
+    for key, default in FEM_KEYS.items():
+        val = getattr(fem, key)
+        if isinstance(default, bool) or isinstance(default, str):
+            if type(val) is not type(default):
+                raise check.refuse(f"fem.{key}", val, f"a {type(default).__name__}")
+            continue
+        need = FEM_RANGES[key][1]
+        if isinstance(default, int) and (isinstance(val, bool) or not isinstance(val, Integral)):
+            raise check.refuse(f"fem.{key}", val, f"an integer, {need}")
+        check.real(f"fem.{key}", val, need, FEM_RANGES[key][0])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -309,18 +413,8 @@ def _samples(doc: dict, Q0: float, src: str) -> tuple[tuple[float, ...], tuple[f
 def _fem(doc: dict, src: str, base: Path | None) -> FemSettings:
     tab = _check_keys(doc.get("fem", {}), FEM_KEYS, "fem", src)
     vals = {k: _typed(tab, k, d, "fem", src) for k, d in FEM_KEYS.items()}
-    checks = {
-        "level": (-3 <= vals["level"] <= 6, "-3 <= level <= 6"),
-        "order": (vals["order"] in (1, 2), "1 or 2"),
-        "penalty_factor": (vals["penalty_factor"] > 0, "> 0"),
-        "n_normal": (vals["n_normal"] >= 1, ">= 1"),
-        "n_tangential": (vals["n_tangential"] >= 1, ">= 1"),
-        "size_factor": (vals["size_factor"] >= 2, ">= 2"),
-        "window_margin": (0 <= vals["window_margin"] <= 1, "0 <= window_margin <= 1"),
-        "growth": (1 < vals["growth"] <= 2, "1 < growth <= 2"),
-    }
-    for key, (ok, allowed) in checks.items():
-        if not ok:
+    for key, (ok, allowed) in FEM_RANGES.items():
+        if not ok(vals[key]):
             raise CaseError(f"fem.{key}={vals[key]!r} is not allowed: need {allowed} ({src})")
     if vals["mesh_file"]:
         mf = Path(vals["mesh_file"])
@@ -340,6 +434,98 @@ def _tolerances(doc: dict, src: str) -> dict:
             raise CaseError(f"tolerances.{key}={val!r} is not allowed: need > 0 ({src})")
         out[key] = val
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# profiles and cases written out
+# ---------------------------------------------------------------------------------------------
+def profile_spec(profile: Profile) -> dict:
+    """The ``[profile]`` table of a profile built by :mod:`analytic.profiles`.
+
+    From ``profile.name`` and ``profile.params``; a union becomes ``type = "union"`` with its
+    members.  A profile that does not describe itself (built by hand, or a union of unions)
+    raises :class:`CaseError`.
+    """
+    if profile.name == "union":
+        members = [_simple_spec(n, p, "union member") for n, p in profile.params["members"]]
+        return {"type": "union", "members": members}
+    return _simple_spec(profile.name, profile.params, "profile")
+
+
+def _simple_spec(kind: str, params: dict, what: str) -> dict:
+    if kind not in PROFILE_SCHEMAS:
+        raise CaseError(f"{what} of type {kind!r} cannot be described in a case: need one of "
+                        f"{', '.join(sorted(PROFILE_SCHEMAS))} (a union's members must be simple "
+                        "profiles), as built by analytic.profiles")
+    return {"type": kind, **{k: _plain(v) for k, v in params.items()}}
+
+
+def _plain(value: Any) -> Any:
+    """TOML-ready value: str as is, numbers as float, sequences as lists of floats."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (list, tuple)) or hasattr(value, "tolist"):
+        values = value.tolist() if hasattr(value, "tolist") else value
+        return [float(v) for v in values] if isinstance(values, list) else float(values)
+    return float(value)
+
+
+#: Relative agreement of h0 between a profile and the one rebuilt from its description (both come
+#: from the same constructor with the same arguments: any difference is a stale description).
+SAME_GAP_RTOL = 1e-12
+SAME_GAP_POINTS = 2001  # samples of h0 over the profile's features +- their span
+
+
+def _check_same_gap(given: Profile, rebuilt: Profile) -> None:
+    feats = [v for pc in given.pieces for v in (pc.lo, pc.hi) if math.isfinite(v)]
+    feats += [0.5 * (m[0] + m[1]) for m in given.local_minima()]
+    lo, hi = min(feats), max(feats)
+    pad = max(hi - lo, given.scale)
+    x = np.linspace(lo - pad, hi + pad, SAME_GAP_POINTS)
+    ha, hb = given.h0(x), rebuilt.h0(x)
+    fin = np.isfinite(ha)
+    scale = float(np.max(np.abs(ha[fin]), initial=0.0))
+    if not (np.array_equal(fin, np.isfinite(hb))
+            and np.allclose(ha[fin], hb[fin], rtol=SAME_GAP_RTOL, atol=SAME_GAP_RTOL * scale)):
+        worst = float(np.max(np.abs(np.where(fin, ha - hb, 0.0))))
+        raise CaseError(f"profile {given.name!r} is not described by its params "
+                        f"{given.params!r}: rebuilt h0 differs by up to {worst:.3g} (e.g. "
+                        "after Profile.with_lift); build it with analytic.profiles constructors")
+
+
+def toml_text(doc: dict) -> str:
+    """A case-file dict as TOML (scalars first, then tables; union members as
+    ``[[profile.members]]``)."""
+    lines = [f"{k} = {_toml_value(v)}" for k, v in doc.items() if not isinstance(v, dict)]
+    for key, table in doc.items():
+        if isinstance(table, dict):
+            lines += _toml_table(key, table)
+    return "\n".join(lines) + "\n"
+
+
+def _toml_table(path: str, table: dict) -> list[str]:
+    out = ["", f"[{path}]"]
+    out += [f"{k} = {_toml_value(v)}" for k, v in table.items()
+            if not (isinstance(v, list) and v and isinstance(v[0], dict))]
+    for k, v in table.items():
+        if isinstance(v, list) and v and isinstance(v[0], dict):
+            for member in v:
+                out += ["", f"[[{path}.{k}]]"] + [f"{mk} = {_toml_value(mv)}"
+                                                  for mk, mv in member.items()]
+    return out
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return json.dumps(v)  # a JSON string is a valid TOML basic string
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else
+                                                 ("inf" if v > 0 else "-inf"))
+    return "[" + ", ".join(_toml_value(e) for e in v) + "]"
 
 
 # ---------------------------------------------------------------------------------------------

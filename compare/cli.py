@@ -1,4 +1,4 @@
-"""Command line ``multicontact``: list, solve, fem, run, converge, report.
+"""Command line ``multicontact``: list, solve, fem, run, verify, converge, report.
 
 Exit codes: 0 the FE and analytic solutions agree (or nothing to compare), 1 a tolerance
 failed, 2 bad input (one message on stderr, nothing written), 3 a solver did not converge.
@@ -89,6 +89,10 @@ def cmd_fem(args) -> int:
     out = Path(args.out or f"{case.name}-vtk")
     hist = run_fem(case, solve_normal_case(case))
     pvd = fem.write_vtk(hist, out)
+    if args.export:
+        from compare.external import write_result
+
+        write_result(hist, args.export, case=case.name)
     ends = [hist.stage(k)[-1] for k in (1, 2, 3) if hist.stage(k)]
     data = {"case": case.name, "vtk": str(pvd), "n_dofs": hist.n_dofs, "h_min": hist.h_min,
             "timings": hist.timings,
@@ -124,6 +128,36 @@ def cmd_run(args) -> int:
             print(format_checks(r.checks, f"{r.case.name}: "
                                 f"{'agrees' if r.passed else 'FAILS'}"))
     return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
+
+
+def _settings(items: Sequence[str] | None) -> dict:
+    from compare.errors import CaseError
+
+    out = {}
+    for item in items or ():
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise CaseError(f"--set {item!r}: expected KEY=VALUE (e.g. pressure_sign=-1)")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def cmd_verify(args) -> int:
+    from compare.testing import format_checks
+    from compare.verify import verify, write_verify_report
+
+    res = verify(args.case, args.result, samples=args.samples, settings=_settings(args.set))
+    report = write_verify_report(res, args.out) if args.out else None
+    if args.json:
+        _print_json(res.summary() | ({"index": report["index"]} if report else {}))
+        return EXIT_OK if res.passed else EXIT_FAIL
+    print(format_checks(res.checks, f"{res.case.name}: {res.source}: "
+                        f"{'agrees' if res.passed else 'FAILS'}"))
+    for metric, why in res.unavailable.items():
+        print(f"  not available: {metric}: {why}")
+    if report:
+        print(f"report written: {report['index']}")
+    return EXIT_OK if res.passed else EXIT_FAIL
 
 
 def cmd_converge(args) -> int:
@@ -187,10 +221,21 @@ def parser() -> argparse.ArgumentParser:
     sp.add_argument("case")
     sp.add_argument("-o", "--out", help="VTK directory (default <case>-vtk)")
     sp.add_argument("--level", type=int, help="override the FE mesh level")
+    sp.add_argument("--export", metavar="DIR",
+                    help="also write the history in the exchange format (docs/external.md)")
     sp = add("run", cmd_run, "analytic + FE + metrics; exit 1 if a tolerance fails")
     sp.add_argument("cases", nargs="+")
     sp.add_argument("--level", type=int, help="override the FE mesh level")
     sp.add_argument("--vtk", help="also write VTK series into VTK/<case>/")
+    sp = add("verify", cmd_verify, "verify an external FE result (docs/external.md) against the "
+             "analytic solution; exit 1 if a tolerance fails")
+    sp.add_argument("case", help="library case name or .toml path")
+    sp.add_argument("result", help="steps.csv manifest, folder of step files, or .pvd series")
+    sp.add_argument("-o", "--out", help="write the report pages into this folder")
+    sp.add_argument("--samples", choices=("steps", "case"), default="steps",
+                    help="compare at every stage-2/3 step (default) or at the case's samples")
+    sp.add_argument("--set", action="append", metavar="KEY=VALUE",
+                    help="override a header item (convention or meta data), repeatable")
     sp = add("converge", cmd_converge, "convergence study (h, penalty or domain size)")
     sp.add_argument("case")
     sp.add_argument("--kind", choices=("h", "penalty", "domain"), default="h")
@@ -209,6 +254,7 @@ def parser() -> argparse.ArgumentParser:
     from compare.sweep import add_sweep_parser  # `sweep` and `report --sweep DIR`
 
     add_sweep_parser(sub)
+    p.description = f"Command line multicontact: {', '.join(sub.choices)}."
     return p
 
 

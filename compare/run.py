@@ -13,7 +13,9 @@ Metrics (all dimensionless; ``CaseResult.metrics`` is a flat dict of floats):
   error (metrics.SHEAR_FLOOR);
 - ``uncoupling_error``: max over stages 2-3 of ||p_fe(Q) - p_fe(0)|| / ||p_fe(0)||;
 - ``jc_error``: FE shear against mu [p_fe(P0) - p_fe(P*)] built from FE normal solutions;
-- ``zone_count_mismatch`` and ``full_slip_mismatches``: counts that must be 0.
+- ``zone_count_mismatch`` and ``full_slip_mismatches``: counts that must be 0;
+- ``stress_l2_error``, ``surface_peak_error``, ``surface_peak_location_error``: FE stresses of
+  body 2 against ``analytic.stress`` (``compare/stress.py``).
 
 NaN means "not applicable" (e.g. no tangential load) and is reported as n/a, never as pass
 of a real measurement.
@@ -23,7 +25,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +34,8 @@ import fem
 from compare import metrics as mt
 from compare.analytic_side import AnalyticResult, StickState, solve_case
 from compare.cases import Case, load_case
-from compare.fem_side import jc_q_values, kinks, run_fem
+from compare.fem_side import Q_MERGE, kinks, run_fem
+from compare.stress import stress_metrics
 from compare.tolerances import METRIC_OF
 
 NAN = float("nan")
@@ -67,7 +70,10 @@ class CaseResult:
     case; analytic (AnalyticResult); fem (fem.FemHistory); metrics (flat dict of floats, see
     module docstring); zones (per analytic zone: edges, FE edges, errors, load shares);
     samples (per sampled Q: stage, Q, analytic and FE stick zones, errors); checks (one
-    :class:`Check` per named tolerance); timings (seconds); vtk (path of the .pvd or None).
+    :class:`Check` per named tolerance); timings (seconds); vtk (path of the .pvd or None);
+    source: what was verified ('multicontact fem' or the external code and its files, see
+    ``compare.verify``); unavailable: metric -> why the result cannot give it (reported as
+    "not available", not as a pass of a measurement).
     """
 
     case: Case
@@ -79,6 +85,8 @@ class CaseResult:
     checks: tuple
     timings: dict
     vtk: str | None = None
+    source: str = "multicontact fem"
+    unavailable: dict = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
@@ -94,7 +102,7 @@ class CaseResult:
                 "checks": [{"name": c.name, "metric": c.metric, "value": _json_float(c.value),
                             "tolerance": c.tolerance, "status": c.status} for c in self.checks],
                 "zones": self.zones, "samples": self.samples, "timings": self.timings,
-                "vtk": self.vtk,
+                "vtk": self.vtk, "source": self.source, "unavailable": self.unavailable,
                 "fem": {"n_dofs": self.fem.n_dofs, "order": self.fem.order,
                         "h_min": self.fem.h_min, "backend": self.fem.backend}}
 
@@ -188,30 +196,46 @@ def uncoupling_error(hist: fem.FemHistory) -> float:
     return max(mt.relative_l2(s.interface.p, s1.p, s1.w) for s in later)
 
 
-def jc_error(case: Case, hist: fem.FemHistory, keep: np.ndarray) -> float:
+def jc_pairs(hist: fem.FemHistory, mu: float, tol: float) -> tuple[list, list]:
+    """Steps of stages 2 / 3 paired with the stage-1 step at their reduced load.
+
+    Stage 2: ``P* = P0 - Q / mu``; stage 3: ``P** = P0 - (Q0 - Q) / (2 mu)`` (P0, Q0 the ends of
+    stages 1 and 2).  Only pairs present in the history (stage-1 load within ``tol``) count.
+    """
+    s1, s2, s3 = hist.stage(1), hist.stage(2), hist.stage(3)
+    if not s2:
+        return [], []
+    P0, Q0 = s1[-1].P, s2[-1].Q
+
+    def at_load(P: float):
+        near = [s for s in s1 if abs(s.P - P) <= tol]
+        return near[-1] if near else None
+
+    two = [(s, at_load(P0 - s.Q / mu)) for s in s2 if s.Q > Q_MERGE * Q0]
+    three = [(s, at_load(P0 - (Q0 - s.Q) / (2 * mu))) for s in s3 if s.Q < Q0 - Q_MERGE * Q0]
+    return [p for p in two if p[1] is not None], [p for p in three if p[1] is not None]
+
+
+def jc_error(case: Case, hist: fem.FemHistory, keep: np.ndarray, tol: float | None = None
+             ) -> float:
     """FE shear vs the Jaeger-Ciavarella superposition of FE normal solutions (floored L2,
-    on the nodes ``keep``: away from singular points).
+    on the nodes ``keep``: away from singular points), over the pairs of :func:`jc_pairs`
+    (``tol``: stage-1 load match, default that of ``FemHistory.at``).
 
     Not applicable with an applied moment: the reduced problem keeps the stage-1 rotation,
     which the stage-1 FE increments (moment scaled with P) do not.
     """
     if case.M is not None or case.Q0 == 0:
         return NAN
-    mu, P0, Q0 = case.mu, case.P, case.Q0
-
-    def p_at(P: float) -> np.ndarray:
-        return hist.at(1, P=P).interface.p[keep]
-
-    def q_at(stage: int, Q: float) -> np.ndarray:
-        return hist.at(stage, Q=Q).interface.q[keep]
-
-    p0, w = p_at(P0), hist.stage(1)[-1].interface.w[keep]
+    mu = case.mu
+    two, three = jc_pairs(hist, mu, 1e-9 * max(case.P, 1.0) if tol is None else tol)
+    end1, end2 = hist.stage(1)[-1].interface, hist.stage(2)[-1].interface
+    p0, w, q_end = end1.p[keep], end1.w[keep], end2.q[keep]
     floor = mt.SHEAR_FLOOR * mu * mt.l2(p0, w)
-    q2, q3 = jc_q_values(case)
-    q_end = q_at(2, Q0)
-    errs = [mt.relative_l2(q_at(2, Q), mu * (p0 - p_at(P0 - Q / mu)), w, floor) for Q in q2]
-    errs += [mt.relative_l2(q_at(3, Q), q_end - 2 * mu * (p0 - p_at(P0 - (Q0 - Q) / (2 * mu))),
-                            w, floor) for Q in q3]
+    errs = [mt.relative_l2(s.interface.q[keep], mu * (p0 - r.interface.p[keep]), w, floor)
+            for s, r in two]
+    errs += [mt.relative_l2(s.interface.q[keep], q_end - 2 * mu * (p0 - r.interface.p[keep]),
+                            w, floor) for s, r in three]
     return max(errs) if errs else NAN
 
 
@@ -227,8 +251,13 @@ def checks_for(metrics: dict, tolerances: dict) -> tuple[Check, ...]:
     return tuple(out)
 
 
-def evaluate(case: Case, an: AnalyticResult, hist: fem.FemHistory) -> tuple[dict, list, list]:
-    """All metrics of a solved case: (metrics, zones, samples)."""
+def evaluate(case: Case, an: AnalyticResult, hist: fem.FemHistory, jc_tol: float | None = None
+             ) -> tuple[dict, list, list]:
+    """All metrics of a solved case: (metrics, zones, samples).
+
+    ``hist`` is our FE history or an external result read as one (``compare.verify``);
+    ``jc_tol``: load match of the Jaeger-Ciavarella pairs (see :func:`jc_error`).
+    """
     end = hist.stage(1)[-1]
     m, zones = normal_metrics(case, an, end)
     ns = an.normal
@@ -237,7 +266,8 @@ def evaluate(case: Case, an: AnalyticResult, hist: fem.FemHistory) -> tuple[dict
     ms, samples = sample_metrics(case, an, hist, keep)
     m.update(ms)
     m["uncoupling_error"] = uncoupling_error(hist)
-    m["jc_error"] = jc_error(case, hist, keep)
+    m["jc_error"] = jc_error(case, hist, keep, jc_tol)
+    m.update(stress_metrics(case, an, hist)[0])
     return m, zones, samples
 
 

@@ -667,9 +667,61 @@ def _task_fn() -> Callable[[dict], dict]:
     return importlib.import_module("compare.sweep").execute
 
 
-def _ignore_sigint() -> None:
-    """Pool workers leave Ctrl-C to the coordinator (which stops them and keeps the records)."""
+#: Seconds between a worker's checks that the coordinating process is still alive.
+COORDINATOR_POLL_S = 0.25
+#: Exit status of a worker that ended itself because its coordinator was gone.
+EXIT_ORPHANED = 75
+
+
+def _proc_stat(pid: int) -> list[str] | None:
+    """The fields of ``/proc/PID/stat`` after the command name (state first), or None."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    return stat[stat.rfind(")") + 2:].split()
+
+
+def process_identity(pid: int) -> tuple[int, str]:
+    """``(pid, start time)``: a pid reused by a later process has another start time (Linux
+    ``/proc``; elsewhere the start time is '' and only the pid is checked)."""
+    fields = _proc_stat(pid)
+    return pid, fields[19] if fields else ""
+
+
+def is_alive(identity: tuple[int, str]) -> bool:
+    """Whether the process ``identity`` (from :func:`process_identity`) still runs (a zombie,
+    killed but not yet reaped, counts as gone)."""
+    pid, start = identity
+    if start:
+        fields = _proc_stat(pid)
+        return fields is not None and fields[19] == start and fields[0] not in ("Z", "X")
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def watch_coordinator(identity: tuple[int, str]) -> None:
+    """End this (worker) process when the coordinator ``identity`` is gone, e.g. killed by
+    SIGKILL, which it cannot forward: a daemon thread polls it every COORDINATOR_POLL_S.  Once
+    the workers are gone, the forkserver and resource tracker they kept open exit too."""
+    def watch() -> None:
+        while is_alive(identity):
+            time.sleep(COORDINATOR_POLL_S)
+        os._exit(EXIT_ORPHANED)
+
+    threading.Thread(target=watch, name="multicontact-coordinator-watch", daemon=True).start()
+
+
+def _init_worker(coordinator: tuple[int, str]) -> None:
+    """Pool workers leave Ctrl-C to the coordinator (which stops them and keeps the records)
+    and end themselves when the coordinator dies."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    watch_coordinator(coordinator)
 
 
 def _pool(workers: int) -> ProcessPoolExecutor:
@@ -677,7 +729,8 @@ def _pool(workers: int) -> ProcessPoolExecutor:
 
     ctx = mp.get_context("forkserver")
     ctx.set_forkserver_preload(["compare.sweep", "analytic", "fem"])
-    return ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_ignore_sigint)
+    return ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                               initargs=(process_identity(os.getpid()),))
 
 
 def _kill_pool(pool: ProcessPoolExecutor) -> None:

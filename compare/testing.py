@@ -43,7 +43,9 @@ def assert_agrees(result: CaseResult, **tolerances: float) -> None:
     Keywords (all optional, override the case's named tolerances): ``edge_rtol``,
     ``stick_rtol``, ``pressure_rtol``, ``shear_rtol``, ``load_share_atol``, ``moment_atol``,
     ``rotation_rtol``, ``uncoupling_rtol``, ``jc_rtol``.  The zone-count and full-slip counts must
-    be zero.  NaN metrics (not applicable) pass.  Raises :class:`DisagreementError`.
+    be zero.  NaN metrics (not applicable) pass, except a metric the caller gave a tolerance
+    for that the result cannot give (``result.unavailable``, external results): that fails.
+    Raises :class:`DisagreementError`.
     """
     bad = sorted(set(tolerances) - set(KEYWORDS))
     if bad:
@@ -54,6 +56,12 @@ def assert_agrees(result: CaseResult, **tolerances: float) -> None:
               for n, t in tol.items()]
     checks += [Check(n, k, float(result.metrics.get(k, math.nan)), 0.0)
                for n, k in EXACT_CHECKS.items()]
+    asked = [METRIC_OF[KEYWORDS[k]] for k in tolerances]
+    na = getattr(result, "unavailable", {})  # duck-typed results may lack it
+    missing = [f"{m}: {na[m]}" for m in asked if m in na]
+    if missing:
+        raise DisagreementError(f"case '{result.case.name}': not available from the result: "
+                                + "; ".join(missing))
     failed = [c for c in checks if not c.passed]
     if failed:
         names = ", ".join(f"{c.name} ({c.metric}={c.value:.4g} > {c.tolerance:.4g})"

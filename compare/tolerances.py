@@ -42,6 +42,17 @@ UNCOUPLING_RTOL = 0.02
 #: differ near the stick edges; measured 0.03-0.18 at default levels.
 JC_RTOL = 0.20
 
+#: FE stresses of body 2 against analytic.stress, relative L2 in a box around every zone
+#: (compare/stress.py): mostly the uniform sxx the finite FE bodies add (falls like 1/size);
+#: measured 0.013-0.052 over the library at the default levels.
+STRESS_RTOL = 0.08
+#: Surface sxx peak per zone, |FE - analytic| / max |analytic sxx|: the peak sits at a trailing
+#: or stick edge where the nodal projection smears it over an element; measured 0.04-0.18.
+SURFACE_PEAK_RTOL = 0.25
+#: Distance of the FE surface sxx peak from the analytic one / zone width: about one element;
+#: measured 0.003-0.065.
+SURFACE_PEAK_LOCATION_RTOL = 0.1
+
 DEFAULTS = MappingProxyType({
     "edge": EDGE_RTOL,
     "stick": STICK_RTOL,
@@ -52,6 +63,9 @@ DEFAULTS = MappingProxyType({
     "rotation": ROTATION_RTOL,
     "uncoupling": UNCOUPLING_RTOL,
     "jaeger_ciavarella": JC_RTOL,
+    "stress": STRESS_RTOL,
+    "surface_peak": SURFACE_PEAK_RTOL,
+    "surface_peak_location": SURFACE_PEAK_LOCATION_RTOL,
 })
 
 #: Which metric each tolerance bounds (metric name in CaseResult.metrics).
@@ -65,4 +79,7 @@ METRIC_OF = MappingProxyType({
     "rotation": "rotation_error",
     "uncoupling": "uncoupling_error",
     "jaeger_ciavarella": "jc_error",
+    "stress": "stress_l2_error",
+    "surface_peak": "surface_peak_error",
+    "surface_peak_location": "surface_peak_location_error",
 })

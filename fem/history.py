@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._validate import check_scalars, check_settings
 from .bulk import Discretisation, discretise, free_dofs, reduced_stiffness
 from .condense import condense, pair_dofs
 from .contact import (
@@ -316,6 +317,8 @@ def solve_history(
     write the VTK time series there; backend: sparse solver ('auto', 'cholmod',
     'pypardiso', 'scipy-splu').
     """
+    P0, Q0, mu, E, nu, M = check_scalars(P0, Q0, mu, E, nu, M)
+    check_settings(h0, mesh, contact, increments, kinks, window, vtk_dir, backend)
     validate_material(E, nu)
     validate_loads(P0, Q0, mu, M)
     schedule = load_schedule(P0, Q0, M, increments or LoadPath())

@@ -1,6 +1,6 @@
 """Two-body quad meshes: graded tensor-product generator and meshio reader.
 
-Geometry (see DESIGN.md): body 1 (upper) occupies ``[xc-W, xc+W] x [0, H]``, body 2
+Geometry (see docs/conventions.md): body 1 (upper) occupies ``[xc-W, xc+W] x [0, H]``, body 2
 (lower) ``[xc-W, xc+W] x [-H, 0]``. Both are flat rectangles: the profile enters only
 through the initial gap ``h0(x)`` of the contact law (small-slope / half-plane
 assumption, the same one the analytic solution makes). The two interface node rows

@@ -1,7 +1,7 @@
 """Result containers (frozen dataclasses) and zone / edge extraction from nodal data.
 
 Units follow the inputs (forces per unit width, lengths, stresses). Sign conventions
-(DESIGN.md): p >= 0 compressive; q is the shear on body 1 in the direction of Q with
+(docs/conventions.md): p >= 0 compressive; q is the shear on body 1 in the direction of Q with
 ``sum q w = Q``; ``M = sum x p w`` about x = 0; slip is the irreversible relative
 tangential displacement of body 1 over body 2 (+x); status 0 open, 1 stick, 2 slip.
 """

@@ -5,7 +5,9 @@ atomically (temporary file in the same directory, then ``os.replace``).
 Bodies: points = nodal dof locations (Q2 elements are split into 4 linear quads),
 point data ``displacement`` (3 components), ``stress`` (3x3 tensor, sigma_zz from
 plane strain), ``von_mises``, ``body`` (1 upper, 2 lower). Interface: points on y = 0
-with ``p``, ``q``, ``status``, ``slip``, ``penetration``.
+with ``p``, ``q``, ``status``, ``slip``, ``penetration``, ``w`` (tributary length), ``gap``
+and the step's loads as field data ``stage``, ``P``, ``Q``, ``M``, ``theta`` (the exchange
+format of docs/external.md).
 """
 
 from __future__ import annotations
@@ -86,16 +88,30 @@ def interface_mesh(step):
         "status": f.status.astype(np.int32),
         "slip": f.slip,
         "penetration": f.penetration,
+        "w": f.w,
+        "gap": f.gap,
     }
     return meshio.Mesh(pts, [("line", lines)], point_data=data)
 
 
-def atomic_write_mesh(mesh, path: Path) -> None:
-    """Write a meshio mesh as .vtu through a temporary file and os.replace."""
+def step_loads(step) -> dict:
+    """Field data of an interface .vtu: the step's stage and loads (P, Q, M, theta)."""
+    return {"stage": step.stage, "P": step.P, "Q": step.Q, "M": step.M, "theta": step.plate[2]}
+
+
+def atomic_write_mesh(mesh, path: Path, field_data: dict | None = None) -> None:
+    """Write a meshio mesh as .vtu through a temporary file and os.replace; ``field_data``
+    (name -> float) is added as an ASCII <FieldData> block (meshio 5 does not write it)."""
     import meshio
 
     tmp = path.with_name(f".{path.name}.tmp")
     meshio.write(tmp, mesh, file_format="vtu")
+    if field_data:
+        arrays = "".join(f'<DataArray type="Float64" Name="{k}" NumberOfTuples="1" '
+                         f'format="ascii">{float(v)!r}</DataArray>' for k, v in field_data.items())
+        text = tmp.read_text(encoding="utf-8")
+        tmp.write_text(text.replace("<UnstructuredGrid>", f"<UnstructuredGrid><FieldData>{arrays}"
+                                    "</FieldData>", 1), encoding="utf-8")
     os.replace(tmp, path)
 
 
@@ -114,7 +130,7 @@ def write_vtk(history, directory) -> Path:
     for step in history.steps:
         names = (f"bodies_{step.index:04d}.vtu", f"interface_{step.index:04d}.vtu")
         atomic_write_mesh(bodies_mesh(history, step), directory / names[0])
-        atomic_write_mesh(interface_mesh(step), directory / names[1])
+        atomic_write_mesh(interface_mesh(step), directory / names[1], step_loads(step))
         entries += [
             f'    <DataSet timestep="{step.t:.12g}" part="{k}" file={quoteattr(n)}/>'
             for k, n in enumerate(names)

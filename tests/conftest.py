@@ -53,7 +53,7 @@ def _quad_zone(sol, f, a: float, b: float, kinks: list[float]) -> float:
     """Split at kinks; next to a true edge ``x = edge + (mid - edge) u^2`` turns the
     ``d^(+-1/2)`` edge behaviour into a smooth integrand in u."""
     def g(x: float) -> float:
-        return float(sol.pressure(x)[0] * f(np.array([x]))[0])
+        return float(sol.pressure(x) * f(np.array([x]))[0])
 
     def near_edge(edge: float, mid: float) -> float:
         span = mid - edge

@@ -1,11 +1,15 @@
-"""Verification report: ``DIR/index.html`` (self-contained), ``DIR/report.md``, ``DIR/summary.json``.
+"""Verification report: ``DIR/index.html`` (self-contained), ``DIR/report.md`` and
+``DIR/summary.json``.
 
-Per case: the metrics table with pass/fail, matplotlib figures (pressure, shear per stage, stick
-zones over the cycle), a pyvista off-screen picture of the deformed bodies coloured by von Mises
-stress, and links to the VTK series (``DIR/vtk/<case>/history.pvd``).  Optional convergence
-studies (log-log plots with observed orders) and the paper's Fig. 5 study page
-(``DIR/study_fig5.html``).  Everything is written into a temporary directory next to ``DIR``
-and renamed into place at the end, so a failed run leaves no partial report.
+Per case: a header line (sparse backend, DOFs, elements, the verdict with the worst metric
+relative to its tolerance, run time), the metrics table with pass/fail, matplotlib figures
+(pressure and shear with one panel per contact zone and FE - analytic under each, stick zones
+over the cycle, sigma_xx around the contact with the interface status), a small pyvista
+off-screen picture of the whole deformed bodies coloured by von Mises stress, and links to the
+VTK series (``DIR/vtk/<case>/history.pvd``).  A case run without CHOLMOD is announced at the
+top.  Optional convergence studies (log-log plots with observed orders) and the paper's Fig. 5
+study page (``DIR/study_fig5.html``).  Everything is written into a temporary directory next
+to ``DIR`` and renamed into place at the end, so a failed run leaves no partial report.
 """
 
 from __future__ import annotations
@@ -22,10 +26,11 @@ from pathlib import Path
 
 from compare.cases import Case, load_case
 from compare.convergence import ConvergenceStudy, convergence
-from compare.report import figures
+from compare.report import figures, region, zones
 from compare.report.fig5 import fig5_rows
-from compare.report.html import case_html, case_md, page, study_html
+from compare.report.html import case_html, case_md, page, study_html, verdict_text
 from compare.report.render3d import render_bodies
+from compare.report.stress import stress_figures
 from compare.run import CaseResult, run_case
 
 #: The default suite of ``make run`` (each at its library FE level; about 1-2 minutes on 2 cores).
@@ -48,13 +53,16 @@ class CaseSection:
     render_note: str = ""
     vtk_link: str = ""
     vtk_note: str = ""
+    seconds: float = 0.0                          # figures, VTK and picture of this case
 
 
 def _write_figs(sec: CaseSection, root: Path) -> None:
     res = sec.result
-    made = {"pressure (stage 1 end)": figures.pressure_figure(res),
-            "shear (stages 2 and 3)": figures.shear_figure(res),
-            "stick zones over the cycle": figures.stick_cycle_figure(res)}
+    made = {"pressure (stage 1 end), per zone": zones.pressure_figure(res),
+            "shear (stages 2 and 3), per zone": zones.shear_figure(res),
+            "stick zones over the cycle": figures.stick_cycle_figure(res),
+            "contact region: sigma_xx and interface status": region.region_figure(res)}
+    made.update(stress_figures(res))
     sec.figures = {k: v for k, v in made.items() if v is not None}
     fig_dir = root / "figures"
     fig_dir.mkdir(exist_ok=True)
@@ -82,11 +90,9 @@ def _vtk_and_render(sec: CaseSection, root: Path) -> None:
         sec.render_note = "no pyvista picture: the VTK series is missing"
         return
     sec.vtk_link = Path(pvd).relative_to(root).as_posix()
-    step = res.fem.stage(2)[-1] if res.fem.stage(2) else res.fem.stage(1)[-1]
-    vtu = out / f"bodies_{step.index:04d}.vtu"
+    vtu = out / f"bodies_{region.region_step(res).index:04d}.vtu"
     png = root / "figures" / f"{res.case.name}_bodies.png"
-    zones = res.analytic.normal.zones
-    ok, why = render_bodies(vtu, png, (zones[0][0], zones[-1][1])) if vtu.is_file() else (
+    ok, why = render_bodies(vtu, png, region.region_box(res)) if vtu.is_file() else (
         False, f"{vtu.name} not found in the VTK series")
     sec.render, sec.render_note = (png.relative_to(root).as_posix(), "") if ok else ("", why)
     sec.render_png = png.read_bytes() if ok else b""
@@ -109,7 +115,7 @@ def _summary(sections: list[CaseSection], studies: list[ConvergenceStudy], fig5:
     for s in sections:
         d = s.result.summary()
         d.update(render=s.render, render_note=s.render_note, vtk_link=s.vtk_link,
-                 vtk_note=s.vtk_note)
+                 vtk_note=s.vtk_note, verdict=verdict_text(s.result), report_seconds=s.seconds)
         cases.append(d)
     return {"passed": all(s.result.passed for s in sections), "cases": cases,
             "convergence": [st.summary() for st in studies], "fig5": fig5,
@@ -149,8 +155,10 @@ def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, pro
     sections = []
     for case in cases:
         sec = CaseSection(run_case(case))
+        t_case = time.perf_counter()
         _write_figs(sec, root)
         _vtk_and_render(sec, root)
+        sec.seconds = time.perf_counter() - t_case
         sections.append(sec)
         progress(f"case {case.name}: {'agrees' if sec.result.passed else 'FAILS'}")
     studies, conv_figs = [], {}
@@ -166,8 +174,8 @@ def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, pro
         rows = fig5_rows()
         fig5_png = figures.fig5_figure(rows)
         (root / "figures" / "fig5.png").write_bytes(fig5_png)
-        (root / "study_fig5.html").write_text(page("Study: paper Fig. 5", study_html(rows, fig5_png),
-                                                   links=False), encoding="utf-8")
+        html = page("Study: paper Fig. 5", study_html(rows, fig5_png), links=False)
+        (root / "study_fig5.html").write_text(html, encoding="utf-8")
         progress("study Fig. 5 written")
     summary = _summary(sections, studies, rows, time.perf_counter() - t0)
     _write_documents(root, sections, studies, conv_figs, want_fig5, summary)

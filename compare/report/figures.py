@@ -1,4 +1,8 @@
-"""Matplotlib figures of a case result (PNG bytes; the Agg backend, no display needed)."""
+"""Matplotlib figures of a case result (PNG bytes; the Agg backend, no display needed).
+
+The per-zone pressure and shear figures are in :mod:`compare.report.zones`, the contact region
+in :mod:`compare.report.region`.
+"""
 
 from __future__ import annotations
 
@@ -23,60 +27,6 @@ def png(fig) -> bytes:
     fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
     plt.close(fig)
     return buf.getvalue()
-
-
-def _plot_x(res: CaseResult) -> np.ndarray:
-    zones = res.analytic.normal.zones
-    lo, hi = zones[0][0], zones[-1][1]
-    pad = 0.08 * (hi - lo)
-    pts = [np.linspace(lo - pad, hi + pad, 1500)]
-    pts += [np.linspace(a, b, 400)[1:-1] for a, b in zones]
-    return np.unique(np.concatenate(pts))
-
-
-def _fe_window(res: CaseResult, it) -> np.ndarray:
-    zones = res.analytic.normal.zones
-    lo, hi = zones[0][0], zones[-1][1]
-    pad = 0.08 * (hi - lo)
-    return (it.x >= lo - pad) & (it.x <= hi + pad)
-
-
-def pressure_figure(res: CaseResult) -> bytes:
-    """Stage-1 end: analytic pressure (line) and FE nodal pressure (points)."""
-    x = _plot_x(res)
-    it = res.fem.stage(1)[-1].interface
-    m = _fe_window(res, it)
-    fig, ax = plt.subplots(figsize=(7.5, 3.2))
-    p_an = res.analytic.normal.pressure(x)
-    ax.plot(x, p_an, "k-", lw=1.3, label="analytic")
-    ax.plot(it.x[m], it.p[m], "o", ms=2.5, color="tab:red", label="FE nodes")
-    top = np.percentile(p_an[p_an > 0], 98) * 1.6 if np.any(p_an > 0) else 1.0
-    ax.set_ylim(0, max(top, float(np.max(it.p[m])) * 1.05 if m.any() else top))
-    ax.set(xlabel="x", ylabel="p(x)", title=f"{res.case.name}: pressure at P = {res.case.P:g}")
-    ax.legend(loc="upper right", fontsize=8)
-    return png(fig)
-
-
-def shear_figure(res: CaseResult) -> bytes | None:
-    """Stages 2 and 3: analytic shear (lines) and FE shear (points) at the sampled Q."""
-    samples = res.analytic.samples
-    if not samples:
-        return None
-    x = _plot_x(res)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.4), sharey=True)
-    for ax, stage in zip(axes, (2, 3), strict=True):
-        states = [s for s in samples if s.stage == stage]
-        colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(states), 1)))
-        for st, col in zip(states, colors, strict=False):
-            it = res.fem.at(stage, Q=st.Q).interface
-            m = _fe_window(res, it)
-            ax.plot(x, st.shear(x), "-", color=col, lw=1.2, label=f"Q/Q0 = {st.Q / res.case.Q0:.2f}")
-            ax.plot(it.x[m], it.q[m], "o", ms=2.0, color=col)
-        ax.axhline(0, color="0.7", lw=0.6)
-        ax.set(xlabel="x", title=f"stage {stage}: shear q(x) (lines analytic, dots FE)")
-        ax.legend(fontsize=7)
-    axes[0].set_ylabel("q(x)")
-    return png(fig)
 
 
 def stick_cycle_figure(res: CaseResult) -> bytes | None:

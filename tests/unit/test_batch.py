@@ -105,7 +105,7 @@ def test_jacobian_in_one_batch_matches_column_differences(solved) -> None:
         F, _ = normal._residual(st, mode, solved.profile, solved.A)
         z = normal._pack(st, mode)
         J = normal._jacobian(z, F, st, mode, solved.profile, solved.A)
-        steps = normal._fd_steps(z, st, mode)
+        steps = normal._fd_steps(z, st, mode, solved.profile)
         for j in range(z.size):
             zp = z.copy()
             zp[j] += steps[j]

@@ -54,7 +54,8 @@ def test_html_self_contained_and_links_resolve(report):
     p = Links()
     p.feed(text)
     embedded = [r for r in p.refs if r.startswith("data:image/png;base64,")]
-    assert len(embedded) >= 5  # pressure x2, shear, cycle, convergence (+ pyvista pictures)
+    assert len(embedded) >= 7  # pressure x2, shear, cycle, contact region, convergence
+    # (+ pyvista pictures)
     for ref in p.refs:
         if ref.startswith("data:"):
             continue
@@ -65,6 +66,21 @@ def test_html_self_contained_and_links_resolve(report):
     assert "vtk/cattaneo/history.pvd" in p.refs
     for ref in re.findall(r"\]\(([^)]+)\)", (report / "report.md").read_text()):
         assert (report / ref).is_file(), f"broken markdown link {ref}"
+
+
+def test_case_header_backend_dofs_elements_verdict_time(report):
+    text = (report / "index.html").read_text()
+    s = json.loads((report / "summary.json").read_text())
+    heads = re.findall(r'<p class="head">(.*?)</p>', text)
+    assert len(heads) == len(s["cases"])
+    for head, case in zip(heads, s["cases"], strict=True):
+        fe = case["fem"]
+        assert f"backend <b>{fe['backend']}</b>" in head and f"{fe['n_dofs']} DOFs" in head
+        assert "Q4 (linear)" in head and "run time" in head
+        assert case["verdict"].startswith("agrees; worst: ") and case["verdict"] in head
+    assert ('class="loud"' in text) == any(c["fem"]["backend"] != "cholmod" for c in s["cases"])
+    md = (report / "report.md").read_text()
+    assert all(f"Backend **{c['fem']['backend']}**" in md for c in s["cases"])
 
 
 def test_pvd_series_files_exist(report):

@@ -1,6 +1,6 @@
 """Cattaneo-Mindlin partial slip (stages 2, 3) and normal/tangential uncoupling.
 
-Closed forms (Johnson 1985, Sec. 7.1; Jaeger-Ciavarella; DESIGN.md): Hertz half-width
+Closed forms (Johnson 1985, Sec. 7.1; Jaeger-Ciavarella; docs/conventions.md): Hertz half-width
 ``a = sqrt(2 A P R / pi)``; stage 2 stick half-width ``c = a sqrt(1 - Q/(mu P))``;
 stage 3 ``c = a sqrt(1 - (Q0 - Q)/(2 mu P))``.
 """

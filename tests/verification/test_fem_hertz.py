@@ -1,6 +1,6 @@
 """Hertz cylinder-on-flat (stage 1) against the plane-strain closed form.
 
-Closed form (Johnson, Contact Mechanics, 1985, Sec. 5.5; DESIGN.md with p >= 0):
+Closed form (Johnson, Contact Mechanics, 1985, Sec. 5.5; docs/conventions.md, p >= 0):
 half-width ``a = sqrt(2 A P R / pi)``, peak pressure ``p0 = a / (A R)``,
 ``p(x) = p0 sqrt(1 - x^2/a^2)``, ``A = 4 (1 - nu^2) / E``.
 """

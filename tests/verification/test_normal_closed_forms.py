@@ -3,8 +3,8 @@
 Conventions: ``A = 4 (1 - nu^2) / E`` (so ``A = 2 / E*`` of Johnson 1985), ``M = int x p dx``.
 Every closed form is a pure function below with its formula and source. Where a published
 relation is stated in another normalisation, the docstring derives it in ours from the
-single-zone / two-zone inversion (paper Eqs. 12-14, DESIGN.md): for one zone ``[a, b]`` with
-nonsingular edges
+single-zone / two-zone inversion (paper Eqs. 12-14, docs/conventions.md): for one zone
+``[a, b]`` with nonsingular edges
 
     consistency   int_a^b h'(s) / sqrt((s-a)(b-s)) ds = 0,
     equilibrium   P = (1/A) int_a^b s h'(s) / sqrt((s-a)(b-s)) ds,
@@ -213,7 +213,7 @@ def test_hertz_half_width_peak_and_profile(P, R, center, zone_integral) -> None:
     assert abs(lo - (center - a)) <= EDGE_RTOL * 2 * a
     assert abs(hi - (center + a)) <= EDGE_RTOL * 2 * a
     p0 = a / (A * R)
-    assert sol.pressure(center)[0] == pytest.approx(p0, rel=PRESSURE_RTOL)
+    assert sol.pressure(center) == pytest.approx(p0, rel=PRESSURE_RTOL)
     x = center + a * np.linspace(-1.2, 1.2, 96)  # no point exactly at an edge (sqrt)
     err = np.abs(sol.pressure(x) - hertz_pressure(x, a, A, R, center))
     assert err.max() <= PRESSURE_RTOL * p0
@@ -223,7 +223,8 @@ def test_hertz_half_width_peak_and_profile(P, R, center, zone_integral) -> None:
 
 def test_hertz_deformed_gap_is_the_closed_form() -> None:
     """Outside ``[-a, a]`` the deformed-gap slope is ``g' = W B / pi = sign(x) sqrt(x^2 - a^2) / R``
-    (DESIGN.md with ``B = pi / R``), so ``g = (|x| sqrt(x^2 - a^2) - a^2 acosh(|x|/a)) / (2 R)``
+    (docs/conventions.md, with ``B = pi / R``), so
+    ``g = (|x| sqrt(x^2 - a^2) - a^2 acosh(|x|/a)) / (2 R)``
     (equivalently Johnson 1985, Sec. 4.2, surface displacement outside a Hertz contact)."""
     R, P = 1.3, 0.4
     sol = analytic.solve_normal(profiles.cylinder(R), P, A)
@@ -280,7 +281,7 @@ def test_rounded_flat_punch_ciavarella_hills_monno(P, zone_integral) -> None:
     dh = lambda s: np.sign(s) * max(abs(s) - b, 0.0) / rho  # noqa: E731
     for x in (0.0, 0.3 * a, 0.6 * a, 0.95 * a):
         ref = single_zone_pressure_quad(dh, -a, a, x, A, kinks=(-b, b))
-        assert sol.pressure(x)[0] == pytest.approx(ref, rel=QUAD_RTOL)
+        assert sol.pressure(x) == pytest.approx(ref, rel=QUAD_RTOL)
     check_admissible(sol, zone_integral)
 
 
@@ -342,7 +343,7 @@ def test_gladwell_zones_merge_at_pi_c2_over_4AR(eps) -> None:
     lo, hi = above.zones[0]
     assert lo == pytest.approx(-hi, rel=EDGE_RTOL)
     assert gladwell_load_merged(hi, c, A, R) == pytest.approx(P_merge * (1 + eps), rel=LOAD_RTOL)
-    assert above.pressure(0.0)[0] > 0
+    assert above.pressure(0.0) > 0
 
 
 @pytest.mark.parametrize("eps", [1e-3, 1e-4, 1e-5, 1e-6])
@@ -405,7 +406,7 @@ def test_wedge_edges_and_pressure(phi_l, phi_r, apex, zone_integral) -> None:
     dh = lambda s: -np.tan(phi_l) if s < apex else np.tan(phi_r)  # noqa: E731
     for x in (a + 0.1 * (b - a), apex + 0.3 * (b - apex), b - 0.05 * (b - a)):
         ref = single_zone_pressure_quad(dh, a, b, x, A, kinks=(apex,))
-        assert sol.pressure(x)[0] == pytest.approx(ref, rel=QUAD_RTOL)
+        assert sol.pressure(x) == pytest.approx(ref, rel=QUAD_RTOL)
     check_admissible(sol, zone_integral)
 
 

@@ -1,0 +1,45 @@
+"""External FE results in the exchange format of ``docs/external.md``.
+
+read_result(path, settings=None) -> ExternalResult
+    path: a manifest ``steps.csv`` (or the folder holding it), a folder of step files, one step
+    file, or a ``.pvd`` VTK series; settings: ``key -> text`` overriding the files' header items
+    (conventions such as ``pressure_sign``, meta data such as ``code``).
+ExternalResult.history(mu, E, nu) -> fem.FemHistory (FE-like, our convention)
+write_result(hist, directory, code=..., case=...) -> path of the manifest (our own history exported)
+Conventions, Meta: the header items.  Errors: compare.errors.CaseError.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from compare.errors import CaseError
+from compare.external.csvio import MANIFEST, read_csv_result, write_csv_result
+from compare.external.exchange import Conventions, ExternalResult, Meta
+from compare.external.vtkio import read_pvd_result
+
+
+def read_result(path: str | Path, settings: dict | None = None) -> ExternalResult:
+    """Read an external result (CSV manifest / step files / one step file / .pvd series)."""
+    p = Path(path)
+    if not p.exists():
+        raise CaseError(f"{p}: no such file or folder; give a {MANIFEST} manifest, a folder of "
+                        "step files or a .pvd series")
+    if p.suffix == ".pvd":
+        return read_pvd_result(p, settings)
+    if p.is_file() and p.suffix != ".csv":
+        raise CaseError(f"{p}: unknown result file type '{p.suffix}'; allowed: .csv, .pvd or a "
+                        "folder")
+    return read_csv_result(p, settings)
+
+
+def write_result(hist, directory: str | Path, code: str = "multicontact fem", case: str = ""
+                 ) -> Path:
+    """Export a ``fem.FemHistory`` in the exchange format (manifest + one CSV per step)."""
+    seconds = hist.timings.get("assembly", 0.0) + hist.timings.get("history", 0.0)
+    meta = Meta(code=code, case=case, dofs=int(hist.n_dofs), order=int(hist.order),
+                seconds=float(seconds))
+    return write_csv_result(hist, directory, meta)
+
+
+__all__ = ["Conventions", "ExternalResult", "Meta", "read_result", "write_result"]

@@ -1,0 +1,247 @@
+"""CSV files of the exchange format: reading (strict, line-numbered errors) and writing.
+
+Two layouts (docs/external.md): a manifest ``steps.csv`` with one row per load step
+(``stage, P, Q[, M, theta], file``) pointing at one node table per step, or a folder of step
+files, each holding its loads as header items (``# stage = 1``, ``# P = 100`` ...).  Header lines
+are ``# key = value``; other ``#`` lines are comments.  The first other line names the columns.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from compare.errors import CaseError
+from compare.external.exchange import (
+    REQUIRED_COLUMNS,
+    Conventions,
+    ExternalResult,
+    Meta,
+    RawStep,
+    check_columns,
+    parse_header,
+    status_codes,
+)
+
+MANIFEST = "steps.csv"
+LOAD_KEYS = ("stage", "P", "Q", "M", "theta")
+MANIFEST_COLUMNS = ("stage", "P", "Q", "file")
+FORMAT_LINE = "# multicontact interface result (docs/external.md), format 1"
+
+
+@dataclass(frozen=True)
+class Table:
+    """A parsed CSV file: header items (with their lines), column names, data rows."""
+
+    path: Path
+    items: dict
+    item_lines: dict
+    names: list
+    rows: list  # (line number, [str, ...])
+
+
+def read_table(path: Path) -> Table:
+    """Split a CSV file into header items, column names and rows (line numbers kept)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CaseError(f"{path}: cannot read ({exc})") from None
+    items, item_lines, names, rows = {}, {}, None, []
+    for no, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        if line.lstrip().startswith("#"):
+            key, eq, value = line.lstrip()[1:].partition("=")
+            if eq and names is None and key.strip():
+                _set_item(items, item_lines, key.strip(), value.strip(), f"{path}, line {no}")
+            continue
+        cells = next(csv.reader([line]))
+        if names is None:
+            names = [c.strip() for c in cells]
+        else:
+            rows.append((no, cells))
+    if names is None:
+        raise CaseError(f"{path}: no column line found (expected e.g. 'x,p,q,status')")
+    return Table(path, items, item_lines, names, rows)
+
+
+def _set_item(items: dict, lines: dict, key: str, value: str, where: str) -> None:
+    if key in items and items[key] != value:
+        raise CaseError(f"{where}: header '{key}' given twice ({items[key]!r} and {value!r})")
+    items[key], lines[key] = value, where
+
+
+def _float(text: str, where: str, col: str, allow_inf: bool = False) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise CaseError(f"{where}: column '{col}' value {text!r} is not a number") from None
+    if math.isnan(v) or (math.isinf(v) and not (allow_inf and v > 0)):
+        allowed = "finite numbers (or +inf: no contact possible)" if allow_inf else "finite numbers"
+        raise CaseError(f"{where}: column '{col}' value {text!r} is not allowed; allowed: "
+                        f"{allowed}")
+    return v
+
+
+def node_columns(table: Table, conv: Conventions) -> dict:
+    """The node table's columns as arrays (x, p, q, status and the optional ones)."""
+    check_columns(table.names, str(table.path), conv)
+    if not table.rows:
+        raise CaseError(f"{table.path}: no node rows after the column line")
+    n = len(table.names)
+    cols = {name: [] for name in table.names}
+    for no, cells in table.rows:
+        if len(cells) != n:
+            raise CaseError(f"{table.path}, line {no}: {len(cells)} values, expected {n} "
+                            f"({','.join(table.names)})")
+        for name, cell in zip(table.names, cells, strict=True):
+            cols[name].append(cell.strip())
+    first = table.rows[0][0]
+    out = {"status": status_codes(cols.pop("status"), str(table.path), first)}
+    for name, vals in cols.items():
+        out[name] = np.array([_float(v, f"{table.path}, line {first + i}", name,
+                                     allow_inf=name == "gap") for i, v in enumerate(vals)])
+    return out
+
+
+def _loads(get, where: str) -> tuple[int, float, float, float, float]:
+    stage_text = get("stage")
+    if stage_text not in ("1", "2", "3"):
+        raise CaseError(f"{where}: stage {stage_text!r} is not allowed; allowed: 1, 2, 3")
+    P, Q = (_float(get(k), where, k) for k in ("P", "Q"))
+    M, theta = (math.nan if get(k) in (None, "") else _float(get(k), where, k)
+                for k in ("M", "theta"))
+    if not P > 0:
+        raise CaseError(f"{where}: P = {P!r} must be > 0 (compressive normal load)")
+    return int(stage_text), P, Q, M, theta
+
+
+# ---------------------------------------------------------------------------------------------
+# reading
+# ---------------------------------------------------------------------------------------------
+def read_csv_result(path: Path, settings: dict | None = None) -> ExternalResult:
+    """Read a manifest (file or folder holding steps.csv), a folder of step files or one step
+    file; ``settings`` (key -> text) override the files' header items."""
+    path = Path(path)
+    if path.is_dir() and not (path / MANIFEST).is_file():
+        tables = _step_files(path)
+        return _result(path, tables, [_own_loads(t) for t in tables], settings or {})
+    table = read_table(path / MANIFEST if path.is_dir() else path)
+    if "file" not in table.names:  # a single step file
+        return _result(table.path, [table], [_own_loads(table)], settings or {})
+    return _result(table.path, [table], _manifest_entries(table), settings or {})
+
+
+def _manifest_entries(table: Table) -> list:
+    missing = [c for c in MANIFEST_COLUMNS if c not in table.names]
+    if missing:
+        raise CaseError(f"{table.path}: missing column '{missing[0]}'; a manifest needs "
+                        f"{', '.join(MANIFEST_COLUMNS)} (optional M, theta, step)")
+    out = []
+    for no, cells in table.rows:
+        where = f"{table.path}, line {no}"
+        if len(cells) != len(table.names):
+            raise CaseError(f"{where}: {len(cells)} values, expected {len(table.names)}")
+        row = dict(zip(table.names, (c.strip() for c in cells), strict=True))
+        step_file = table.path.parent / row["file"]
+        if not step_file.is_file():
+            raise CaseError(f"{where}: step file '{row['file']}' not found")
+        out.append((f"{where} (step file {row['file']})", _loads(row.get, where), step_file))
+    if not out:
+        raise CaseError(f"{table.path}: no step rows after the column line")
+    return out
+
+
+def _step_files(folder: Path) -> list[Table]:
+    files = sorted(folder.glob("*.csv"))
+    if not files:
+        raise CaseError(f"{folder}: no {MANIFEST} and no step files (*.csv) found")
+    return [read_table(f) for f in files]
+
+
+def _own_loads(t: Table) -> tuple:
+    missing = [k for k in ("stage", "P", "Q") if k not in t.items]
+    if missing:
+        raise CaseError(f"{t.path}: missing header item '# {missing[0]} = ...'; without a "
+                        f"{MANIFEST} every step file needs # stage, # P, # Q (# M, # theta)")
+    return str(t.path), _loads(t.items.get, str(t.path)), t
+
+
+def _result(source: Path, header_tables: list, entries: list, settings: dict) -> ExternalResult:
+    items, lines = {}, {}
+    for t in header_tables:
+        for k, v in t.items.items():
+            if k not in LOAD_KEYS:
+                _set_item(items, lines, k, v, t.item_lines[k])
+    items.update(settings)
+    conv, meta = parse_header(items, str(source))
+    raw = []
+    for where, loads, tab in entries:
+        table = tab if isinstance(tab, Table) else read_table(tab)
+        raw.append(RawStep(where, *loads, node_columns(table, conv)))
+    return ExternalResult(str(source), tuple(raw), conv, meta)
+
+
+# ---------------------------------------------------------------------------------------------
+# writing (our own FE history -> manifest + one file per step), atomically
+# ---------------------------------------------------------------------------------------------
+def _num(v: float) -> str:
+    return "" if v is None or (isinstance(v, float) and math.isnan(v)) else repr(float(v))
+
+
+def step_text(step) -> str:
+    """Node table of one FemStep (x, w, p, q, status, slip, gap) with full precision."""
+    it = step.interface
+    lines = [f"{FORMAT_LINE}\n# stage = {step.stage}\n# P = {_num(step.P)}\n# Q = {_num(step.Q)}",
+             "x,w,p,q,status,slip,gap"]
+    cols = (it.x, it.w, it.p, it.q, it.status, it.slip, it.gap)
+    for row in zip(*(np.asarray(c).tolist() for c in cols), strict=True):
+        x, w, p, q, s, sl, g = row
+        lines.append(f"{x!r},{w!r},{p!r},{q!r},{int(s)},{sl!r},{g!r}")
+    return "\n".join(lines) + "\n"
+
+
+def manifest_text(hist, meta: Meta) -> str:
+    """steps.csv of a history: header (meta, our conventions) and one row per step."""
+    conv = Conventions()
+    head = [FORMAT_LINE] + [f"# {f.name} = {getattr(meta, f.name)}" for f in fields(Meta)]
+    head += [f"# {f.name} = {getattr(conv, f.name)}" for f in fields(Conventions)]
+    rows = [f"{s.index},{s.stage},{_num(s.P)},{_num(s.Q)},{_num(s.M)},{_num(s.plate[2])},"
+            f"{step_name(s.index)}" for s in hist.steps]
+    return "\n".join(head + ["step,stage,P,Q,M,theta,file"] + rows) + "\n"
+
+
+def step_name(index: int) -> str:
+    return f"step_{index:04d}.csv"
+
+
+def write_csv_result(hist, directory: str | Path, meta: Meta) -> Path:
+    """Write ``hist`` (fem.FemHistory) as manifest + step files into ``directory``.
+
+    Files go to a temporary folder next to ``directory``, which replaces it at the end.
+    Returns the manifest path.
+    """
+    out = Path(directory).resolve()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        for s in hist.steps:
+            (tmp / step_name(s.index)).write_text(step_text(s), encoding="utf-8")
+        (tmp / MANIFEST).write_text(manifest_text(hist, meta), encoding="utf-8")
+        if out.exists():
+            shutil.rmtree(out)
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out / MANIFEST
+
+
+__all__ = ["MANIFEST", "REQUIRED_COLUMNS", "read_csv_result", "write_csv_result"]

@@ -1,0 +1,274 @@
+"""The exchange format's data model: conventions, raw step tables, conversion to our convention.
+
+A result is a sequence of load steps.  Each step carries its stage (1, 2, 3), the loads P, Q
+(and M or theta) and the interface nodal table ``x, p, q, status`` (optional ``w, slip, gap,
+ux``).  The file readers (:mod:`compare.external.csvio`, :mod:`compare.external.vtkio`) build
+:class:`RawStep` tables in the file's own units and signs; :func:`to_history` converts them with
+the :class:`Conventions` into an FE-like :class:`fem.FemHistory` in our convention (p >= 0
+compressive, q on body 1 in the direction of Q, x in the case's frame, theta with the gap in
+contact h0(x) - theta x).  Every problem raises :class:`compare.errors.CaseError` naming the
+file, the line or step and what is allowed.  The full description is ``docs/external.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+import fem
+from compare.errors import CaseError
+from fem.results import contact_and_stick
+
+#: Columns every step table must have, and the optional ones (see docs/external.md).
+REQUIRED_COLUMNS = ("x", "p", "q", "status")
+OPTIONAL_COLUMNS = ("w", "slip", "gap", "ux")
+#: Status words accepted besides the codes 0 / 1 / 2.
+STATUS_WORDS = {"open": 0, "stick": 1, "slip": 2}
+#: Two steps list the same interface nodes when their x differ by less than this fraction of
+#: the interface length (rounding of a text format).
+SAME_X_RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Conventions:
+    """How the files differ from our convention (all explicit, defaults = our convention).
+
+    pressure_sign: +1 if the file's p > 0 is compressive, -1 if compressive p is negative.
+    shear_sign: +1 if the file's q and Q act on body 1 (upper, profiled) in +x, -1 if they act
+    in -x (e.g. the shear on body 2).  theta_sign: +1 if theta > 0 lowers the gap on the right
+    (our h0(x) - theta x), -1 for the opposite (counter-clockwise) sense.
+    x: "reference" (undeformed coordinates) or "deformed" (x minus the column ``ux`` is used).
+    x_origin: the file's x of the case's origin x = 0 (file units).
+    length_scale, stress_scale: case units per file unit for lengths and for stresses; forces
+    per unit width scale with their product, moments with stress_scale * length_scale**2.
+    values: "traction" (p, q are tractions) or "force" (p, q are nodal forces per unit width,
+    divided by the tributary length w).
+    """
+
+    pressure_sign: int = 1
+    shear_sign: int = 1
+    theta_sign: int = 1
+    x: str = "reference"
+    x_origin: float = 0.0
+    length_scale: float = 1.0
+    stress_scale: float = 1.0
+    values: str = "traction"
+
+    CHOICES = {"pressure_sign": (1, -1), "shear_sign": (1, -1), "theta_sign": (1, -1),
+               "x": ("reference", "deformed"), "values": ("traction", "force")}
+
+
+@dataclass(frozen=True)
+class Meta:
+    """Information about the run: code name, dofs, element order, wall time (0 / '' unknown)."""
+
+    code: str = "external code"
+    case: str = ""
+    dofs: int = 0
+    order: int = 0
+    seconds: float = 0.0
+
+
+#: Header keys of the meta data and their types.
+META_KEYS = {"code": str, "case": str, "dofs": int, "order": int, "seconds": float}
+
+
+@dataclass(frozen=True)
+class RawStep:
+    """One load step as read (file units and signs); ``where`` names it in error messages."""
+
+    where: str
+    stage: int
+    P: float
+    Q: float
+    M: float
+    theta: float
+    columns: dict
+
+
+def parse_header(items: dict[str, str], where: str) -> tuple[Conventions, Meta]:
+    """Conventions and meta data from ``key = value`` header items (unknown keys: error)."""
+    conv_types = {f.name: type(f.default) for f in fields(Conventions)}
+    allowed = sorted(set(conv_types) | set(META_KEYS))
+    conv, meta = {}, {}
+    for key, text in items.items():
+        if key in conv_types:
+            conv[key] = _typed(text, conv_types[key], key, where)
+        elif key in META_KEYS:
+            meta[key] = _typed(text, META_KEYS[key], key, where)
+        else:
+            raise CaseError(f"{where}: unknown header key '{key}'; allowed: {', '.join(allowed)}")
+    return check_conventions(Conventions(**conv), where), Meta(**meta)
+
+
+def _typed(text: str, typ: type, key: str, where: str):
+    try:
+        value = typ(text)
+    except ValueError:
+        raise CaseError(f"{where}: header '{key} = {text}' must be {typ.__name__}") from None
+    if typ is float and not math.isfinite(value):
+        raise CaseError(f"{where}: header '{key} = {text}' must be a finite number")
+    return value
+
+
+def check_conventions(conv: Conventions, where: str) -> Conventions:
+    """Reject values outside :attr:`Conventions.CHOICES` and non-positive scales."""
+    for key, allowed in Conventions.CHOICES.items():
+        if getattr(conv, key) not in allowed:
+            raise CaseError(f"{where}: {key} = {getattr(conv, key)!r} is not allowed; allowed: "
+                            f"{', '.join(map(str, allowed))}")
+    for key in ("length_scale", "stress_scale"):
+        if not getattr(conv, key) > 0:
+            raise CaseError(f"{where}: {key} = {getattr(conv, key)!r} must be > 0")
+    return conv
+
+
+# ---------------------------------------------------------------------------------------------
+# one step table: strict checks, conversion
+# ---------------------------------------------------------------------------------------------
+def status_codes(values: list[str], where: str, first_line: int) -> np.ndarray:
+    """Status column as codes 0 open / 1 stick / 2 slip (also the words open, stick, slip)."""
+    out = np.empty(len(values), np.int8)
+    for i, v in enumerate(values):
+        word = v.strip().lower()
+        code = STATUS_WORDS.get(word)
+        if code is None and word in ("0", "1", "2", "0.0", "1.0", "2.0"):
+            code = int(float(word))
+        if code is None:
+            raise CaseError(f"{where}, line {first_line + i}: status '{v}' is not allowed; "
+                            "allowed: 0 open, 1 stick, 2 slip (or the words)")
+        out[i] = code
+    return out
+
+
+def check_columns(names: list[str], where: str, conv: Conventions) -> None:
+    """All required columns present (``w`` with values = force, ``ux`` with x = deformed)."""
+    need = list(REQUIRED_COLUMNS) + (["w"] if conv.values == "force" else [])
+    need += ["ux"] if conv.x == "deformed" else []
+    known = set(REQUIRED_COLUMNS) | set(OPTIONAL_COLUMNS)
+    for col in need:
+        if col not in names:
+            raise CaseError(f"{where}: missing column '{col}'; required: {', '.join(need)} "
+                            f"(optional: {', '.join(OPTIONAL_COLUMNS)}); found: {', '.join(names)}")
+    extra = [n for n in names if n not in known]
+    if extra:
+        raise CaseError(f"{where}: unknown column '{extra[0]}'; allowed: "
+                        f"{', '.join(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}")
+
+
+def tributary(x: np.ndarray) -> np.ndarray:
+    """Tributary lengths of nodes on a line: half of each adjacent segment."""
+    seg = np.diff(x)
+    return 0.5 * (np.r_[seg, 0.0] + np.r_[0.0, seg])
+
+
+def convert(raw: RawStep, conv: Conventions) -> dict:
+    """Nodal arrays of one step in our convention and the case's units."""
+    c, L, S = raw.columns, conv.length_scale, conv.stress_scale
+    x_file = c["x"] - c["ux"] if conv.x == "deformed" else c["x"]
+    if np.any(np.diff(x_file) <= 0):
+        i = int(np.flatnonzero(np.diff(x_file) <= 0)[0])
+        raise CaseError(f"{raw.where}: x must increase strictly (one row per interface node, "
+                        f"sorted by {'x - ux' if conv.x == 'deformed' else 'x'}); node {i + 2} "
+                        f"has x = {float(x_file[i + 1])!r} after {float(x_file[i])!r}")
+    w_file = c["w"] if "w" in c else tributary(x_file)
+    if np.any(w_file <= 0):
+        raise CaseError(f"{raw.where}: tributary length w must be > 0 at every node")
+    scale = 1.0 / w_file if conv.values == "force" else 1.0
+    return {"x": L * (x_file - conv.x_origin), "w": L * w_file,
+            "p": conv.pressure_sign * S * c["p"] * scale,
+            "q": conv.shear_sign * S * c["q"] * scale, "status": c["status"],
+            "slip": conv.shear_sign * L * c["slip"] if "slip" in c else np.full(x_file.size,
+                                                                                 np.nan),
+            "gap": L * c["gap"] if "gap" in c else np.full(x_file.size, np.nan)}
+
+
+def interface(a: dict) -> fem.FemInterface:
+    pen = np.maximum(-np.where(np.isfinite(a["gap"]), a["gap"], 0.0), 0.0)
+    return fem.FemInterface(x=a["x"], w=a["w"], p=a["p"], q=a["q"], status=a["status"],
+                            slip=a["slip"], penetration=pen, gap=a["gap"])
+
+
+def _t(stage: int, P: float, Q: float, P0: float, Q0: float) -> float:
+    if stage == 1:
+        return P / P0
+    if Q0 == 0:
+        return float(stage)
+    return 1.0 + Q / Q0 if stage == 2 else 2.0 + (Q0 - Q) / (2.0 * Q0)
+
+
+# ---------------------------------------------------------------------------------------------
+# the whole result
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ExternalResult:
+    """A result read from the exchange format (raw tables, conventions, meta, source path)."""
+
+    source: str
+    steps: tuple
+    conventions: Conventions = Conventions()
+    meta: Meta = Meta()
+    notes: dict = field(default_factory=dict)
+
+    def loads(self) -> list[tuple[int, float, float, float, float]]:
+        """(stage, P, Q, M, theta) per step in the case's units and our signs."""
+        c = self.conventions
+        F, L = c.stress_scale * c.length_scale, c.length_scale
+        return [(s.stage, F * s.P, c.shear_sign * F * s.Q, F * L * s.M,
+                 c.theta_sign * s.theta) for s in self.steps]
+
+    def history(self, mu: float, E: float = math.nan, nu: float = math.nan) -> fem.FemHistory:
+        """FE-like history in our convention; zones from ``fem.results.contact_and_stick``."""
+        check_stages(self)
+        loads = self.loads()
+        arrays = [convert(s, self.conventions) for s in self.steps]
+        check_same_nodes(self.steps, arrays)
+        ends = {st: (P, Q) for st, P, Q, _, _ in loads}
+        P0, Q0 = ends[1][0], ends.get(2, (0.0, 0.0))[1]
+        steps = tuple(_step(i, ld, a, mu, P0, Q0)
+                      for i, (ld, a) in enumerate(zip(loads, arrays, strict=True)))
+        x = arrays[0]["x"]
+        h = float(np.min(np.diff(x))) if x.size > 1 else math.nan
+        return fem.FemHistory(steps=steps, n_dofs=self.meta.dofs, order=self.meta.order,
+                              backend=self.meta.code, timings={"external": self.meta.seconds},
+                              mu=mu, E=E, nu=nu, P0=P0, Q0=Q0, h_min=h,
+                              n_candidates=int(x.size), fields=None)
+
+
+def _step(i: int, load: tuple, a: dict, mu: float, P0: float, Q0: float) -> fem.FemStep:
+    stage, P, Q, M, theta = load
+    candidate = ~np.isinf(a["gap"])
+    zones, sticks = contact_and_stick(a["x"], a["p"], a["q"], a["status"], candidate, mu)
+    return fem.FemStep(index=i, stage=stage, t=_t(stage, P, Q, P0, Q0), P=P, Q=Q, M=M,
+                       interface=interface(a), contact_zones=zones, stick_zones=sticks,
+                       plate=(math.nan, math.nan, theta), reactions=(P, Q, M),
+                       residuals=(math.nan,) * 3, iterations=0)
+
+
+def check_stages(res: ExternalResult) -> None:
+    """Stages in load order 1..., 2..., 3... with at least one stage-1 step."""
+    if not res.steps:
+        raise CaseError(f"{res.source}: no load steps found")
+    stages = [s.stage for s in res.steps]
+    for prev, s in zip(res.steps, res.steps[1:], strict=False):
+        if s.stage < prev.stage:
+            raise CaseError(f"{s.where}: stage {s.stage} after stage {prev.stage}; steps must be "
+                            "in load order (stage 1, then 2, then 3)")
+    if stages[0] != 1:
+        raise CaseError(f"{res.steps[0].where}: the first step must be of stage 1 (normal "
+                        f"load), got stage {stages[0]}")
+    if 3 in stages and 2 not in stages:
+        raise CaseError(f"{res.source}: stage-3 steps need the stage-2 steps before them (Q0)")
+
+
+def check_same_nodes(steps: tuple, arrays: list[dict]) -> None:
+    """Every step lists the same interface nodes as the first one."""
+    x0 = arrays[0]["x"]
+    span = float(x0[-1] - x0[0]) if x0.size > 1 else 1.0
+    for s, a in zip(steps[1:], arrays[1:], strict=True):
+        if a["x"].size != x0.size or np.max(np.abs(a["x"] - x0)) > SAME_X_RTOL * span:
+            raise CaseError(f"{s.where}: the interface nodes differ from those of "
+                            f"{steps[0].where} ({a['x'].size} vs {x0.size} nodes); every step "
+                            "must list the same nodes (reference x)")

@@ -1,0 +1,215 @@
+"""``verify``: judge a contact result computed by any FE code against the analytic solution.
+
+The result comes in the exchange format of ``docs/external.md`` (CSV manifest or step files, or
+a VTK series).  It is read as an FE-like history (:meth:`ExternalResult.history`), its loads are
+checked against the case, and the analytic side is solved at the result's *own* loads: P (and M
+in applied-moment mode) of the last stage-1 step, and every stage-2/3 step's Q with Q0 the last
+stage-2 Q.  The metrics, named tolerances and checks are those of :func:`compare.run.run_case`
+(:func:`compare.run.evaluate`); a metric the result cannot give is NaN with its reason in
+``CaseResult.unavailable`` ("not available", never a pass of a measurement).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+import fem
+from compare.analytic_side import solve_case
+from compare.cases import Case, load_case
+from compare.errors import CaseError
+from compare.external import ExternalResult, read_result
+from compare.run import CaseResult, checks_for, evaluate
+from compare.stress import STRESS_METRICS
+
+#: The result's loads may differ from the case's by this fraction of P (Q: of mu P; an applied
+#: M: of M): a displacement-driven run reaches the loads only approximately, and the analytic
+#: side is solved at the measured loads, so this only catches another case or other units.
+LOAD_MATCH_RTOL = 0.1
+#: A stage-1 step pairs with a stage-2/3 step for the Jaeger-Ciavarella check when its P is
+#: within this fraction of P0 of the reduced load: p then differs by about this fraction of its
+#: norm, two orders below the JC tolerance.
+JC_PAIR_RTOL = 2e-3
+#: verify's choices of the sampled Q values.
+SAMPLES = ("steps", "case")
+
+
+def check_loads(case: Case, res: ExternalResult, hist: fem.FemHistory) -> None:
+    """Every step's loads within :data:`LOAD_MATCH_RTOL` of the case's load path."""
+    P, tol_q = case.P, LOAD_MATCH_RTOL * case.mu * case.P
+    P0 = hist.stage(1)[-1].P
+    Q0 = hist.stage(2)[-1].Q if hist.stage(2) else 0.0
+    where = {s.index: raw.where for s, raw in zip(hist.steps, res.steps, strict=True)}
+    if abs(P0 - P) > LOAD_MATCH_RTOL * P:
+        _bad(where[hist.stage(1)[-1].index], f"P = {P0:.6g} at the end of stage 1", P)
+    if case.Q0 > tol_q and not hist.stage(2):
+        raise CaseError(f"{res.source}: the result has no stage-2 steps but the case has "
+                        f"Q0 = {case.Q0:g}; add stages 2 and 3, or verify against a case with "
+                        "Q0 = 0")
+    if abs(Q0 - case.Q0) > tol_q:
+        step = hist.stage(2)[-1].index if hist.stage(2) else hist.stage(1)[-1].index
+        _bad(where[step], f"Q0 = {Q0:.6g} at the end of stage 2", case.Q0,
+             f" +- {tol_q:.4g}")
+    M0 = hist.stage(1)[-1].M
+    if case.M and math.isfinite(M0) and abs(M0 - case.M) > LOAD_MATCH_RTOL * abs(case.M):
+        _bad(where[hist.stage(1)[-1].index], f"M = {M0:.6g} at the end of stage 1", case.M)
+    for s in hist.steps:
+        _check_step(s, where[s.index], case, P0, Q0, tol_q)
+
+
+def _check_step(s, where: str, case: Case, P0: float, Q0: float, tol_q: float) -> None:
+    tol_p = LOAD_MATCH_RTOL * case.P
+    if s.stage == 1 and (s.P > P0 + tol_p or abs(s.Q) > tol_q):
+        raise CaseError(f"{where}: stage-1 step with P = {s.P:.6g}, Q = {s.Q:.6g}; allowed: "
+                        f"0 < P <= {P0:.6g} (+- {tol_p:.4g}) and Q = 0 (+- {tol_q:.4g})")
+    if s.stage > 1 and abs(s.P - P0) > tol_p:
+        raise CaseError(f"{where}: stage-{s.stage} step with P = {s.P:.6g}; the normal load "
+                        f"must stay at P0 = {P0:.6g} (+- {tol_p:.4g}) in stages 2 and 3")
+    lo, hi = (-tol_q, Q0 + tol_q) if s.stage == 2 else (-Q0 - tol_q, Q0 + tol_q)
+    if s.stage > 1 and not lo <= s.Q <= hi:
+        raise CaseError(f"{where}: stage-{s.stage} step with Q = {s.Q:.6g}; allowed "
+                        f"{lo:.6g} <= Q <= {hi:.6g} (Q0 = {Q0:.6g} from the end of stage 2)")
+    if s.stage > 1 and abs(s.Q) > case.mu * s.P:
+        raise CaseError(f"{where}: |Q| = {abs(s.Q):.6g} exceeds mu P = {case.mu * s.P:.6g} "
+                        "(gross sliding is not part of the load path)")
+
+
+def _bad(where: str, what: str, want: float, tol: str = "") -> None:
+    raise CaseError(f"{where}: {what} does not match the case ({want:.6g}{tol}, within "
+                    f"{LOAD_MATCH_RTOL:.0%}); is it a result of this case, in its units? "
+                    "(see the length_scale / stress_scale / sign conventions)")
+
+
+def clip_stage3(hist: fem.FemHistory) -> fem.FemHistory:
+    """Stage-3 loads measured just beyond +-Q0 (within the load tolerance, checked before)
+    taken as +-Q0: the analytic stage 3 runs from Q0 to -Q0 and no further."""
+    if not hist.stage(3):
+        return hist
+    Q0 = hist.stage(2)[-1].Q
+    steps = tuple(replace(s, Q=float(np.clip(s.Q, -Q0, Q0))) if s.stage == 3 else s
+                  for s in hist.steps)
+    return replace(hist, steps=steps)
+
+
+def result_case(case: Case, hist: fem.FemHistory, samples: str, code: str) -> Case:
+    """The case at the result's own loads, sampled at its steps (or the case's samples)."""
+    end = hist.stage(1)[-1]
+    Q0 = hist.stage(2)[-1].Q if hist.stage(2) else 0.0
+    M = None
+    if case.M is not None:
+        M = end.M if math.isfinite(end.M) else case.M
+    if samples == "steps":
+        s2 = tuple(s.Q for s in hist.stage(2))
+        s3 = tuple(s.Q for s in hist.stage(3))
+    else:
+        s2, s3 = case.stage2, case.stage3
+        _check_sampled(hist, s2, s3)
+    return replace(case, P=end.P, Q0=Q0, M=M, stage2=s2, stage3=s3,
+                   description=f"Result of {code} verified. {case.description}")
+
+
+def _check_sampled(hist: fem.FemHistory, s2: tuple, s3: tuple) -> None:
+    for stage, qs in ((2, s2), (3, s3)):
+        for Q in qs:
+            try:
+                hist.at(stage, Q=Q)
+            except fem.InputError:
+                have = ", ".join(f"{s.Q:.6g}" for s in hist.stage(stage))
+                raise CaseError(f"samples = 'case': the case samples Q = {Q:.6g} in stage "
+                                f"{stage}, which is not a step of the result (its Q: {have}); "
+                                "use samples = 'steps'") from None
+
+
+def unavailable(case: Case, hist: fem.FemHistory, metrics: dict) -> dict:
+    """What the case asks for but the result cannot give: metric (or stage) -> why.
+
+    Metrics that do not apply to the case itself (the rotation in vertical indentation, M with
+    an applied moment, stages 2-3 with Q0 = 0) are n/a for our own FE too and are not listed.
+    """
+    isnan = {k for k, v in metrics.items() if isinstance(v, float) and math.isnan(v)}
+    why = {}
+    if case.M is None and "moment_error" in isnan:
+        why["moment_error"] = "the result gives no M at the end of stage 1"
+    if case.M is not None and "rotation_error" in isnan:
+        why["rotation_error"] = "the result gives no theta at the end of stage 1"
+    if case.M is None and case.Q0 > 0 and "jc_error" in isnan:
+        why["jc_error"] = ("needs stage-1 steps at the reduced loads P* = P0 - Q/mu (stage 2) or "
+                           "P** = P0 - (Q0 - Q)/(2 mu) (stage 3) of its stage-2/3 steps; the "
+                           f"result has none within {JC_PAIR_RTOL:g} P0")
+    if getattr(hist, "fields", None) is None:
+        applies = STRESS_METRICS if case.Q0 > 0 else STRESS_METRICS[:2]
+        for k in applies:
+            why[k] = "the result has interface data only (no body stresses)"
+    if case.Q0 > 0 and not hist.stage(3):
+        why["stage 3"] = "the result has no stage-3 steps: stick and shear cover stage 2 only"
+    return why
+
+
+def verify(case: Case | str | Path, result: ExternalResult | str | Path,
+           samples: str = "steps", settings: dict | None = None) -> CaseResult:
+    """Verify an external result of ``case`` against the analytic solution.
+
+    ``result``: an :class:`ExternalResult` or the path of a manifest / step-file folder / .pvd;
+    ``samples``: "steps" (every stage-2/3 step) or "case" (the case's sampled Q, which must be
+    steps of the result); ``settings``: header items overriding the files' (e.g.
+    ``{"pressure_sign": "-1"}``).  Bad files raise :class:`CaseError` before anything is solved.
+    """
+    if samples not in SAMPLES:
+        raise CaseError(f"samples = {samples!r} is not allowed; allowed: {', '.join(SAMPLES)}")
+    case = load_case(case)
+    res = result if isinstance(result, ExternalResult) else read_result(result, settings)
+    hist = res.history(case.mu, case.E, case.nu)
+    check_loads(case, res, hist)
+    hist = clip_stage3(hist)
+    eff = result_case(case, hist, samples, res.meta.code)
+    t0 = time.perf_counter()
+    an = solve_case(eff)
+    t1 = time.perf_counter()
+    m, zones, rows = evaluate(eff, an, hist, jc_tol=JC_PAIR_RTOL * eff.P)
+    return CaseResult(case=eff, analytic=an, fem=hist, metrics=m, zones=zones, samples=rows,
+                      checks=checks_for(m, case.tolerances),
+                      timings={"analytic": t1 - t0, "compare": time.perf_counter() - t1,
+                               "external": res.meta.seconds},
+                      source=f"{res.meta.code} ({res.source})",
+                      unavailable=unavailable(eff, hist, m))
+
+
+def report_note(res: CaseResult) -> str:
+    """One paragraph naming the verified result and the metrics it cannot give."""
+    na = "; ".join(f"{k}: {v}" for k, v in res.unavailable.items())
+    return f"Verified result: {res.source}." + (f" Not available: {na}." if na else "")
+
+
+def write_verify_report(res: CaseResult, out_dir: str | Path) -> dict:
+    """Report pages of a verified external result (index.html, report.md, summary.json).
+
+    The same pages as ``compare.report.write_report`` for one case, written atomically; the
+    page names the external code and lists the metrics that are not available.
+    """
+    import shutil
+    import tempfile
+
+    from compare import report as rp
+
+    t0 = time.perf_counter()
+    shown = replace(res, case=replace(res.case, description=report_note(res)))
+    out = Path(out_dir).resolve()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        (tmp / "figures").mkdir()
+        sec = rp.CaseSection(shown, vtk_note=f"interface data only: {res.source}",
+                             render_note="an external result has no body fields to render")
+        rp._write_figs(sec, tmp)
+        summary = rp._summary([sec], [], [], time.perf_counter() - t0)
+        rp._write_documents(tmp, [sec], [], {}, False, summary)
+        rp._atomic_dir(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    summary["index"] = str(out / "index.html")
+    return summary

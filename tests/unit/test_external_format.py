@@ -1,0 +1,237 @@
+"""The exchange format reader: conventions, strict validation (one clear error per bad file)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from compare import CaseError, load_case
+from compare.external import read_result
+from compare.verify import verify
+
+CASE = load_case("hertz")
+X = np.linspace(-0.2, 0.2, 161)
+#: The synthetic result is the analytic solution sampled at nodes: its metrics are those of
+#: sampling alone (the edge between two nodes, located by the sqrt extrapolation).
+SAMPLED_EDGE_RTOL = 2e-3
+
+
+def hertz_rows(P: float) -> tuple[np.ndarray, np.ndarray]:
+    import analytic
+
+    ns = analytic.solve_normal(CASE.profile, P, CASE.A)
+    p = ns.pressure(X)
+    return p, np.where(p > 0, 1, 0)
+
+
+def write_step(path, p, status, header="", x=X, q=None, extra=None):
+    q = np.zeros_like(p) if q is None else q
+    cols = {"x": x, "p": p, "q": q, "status": status} | (extra or {})
+    lines = [header + ",".join(cols)]
+    lines += [",".join(repr(float(v)) if k != "status" else str(int(v)) for k, v in
+                       zip(cols, vals, strict=True)) for vals in zip(*cols.values(), strict=True)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def write_result(folder, loads=(50.0, 100.0), head="", convert=lambda p, x: (p, x),
+                 load_factor=1.0):
+    folder.mkdir(exist_ok=True)
+    rows = []
+    for k, P in enumerate(loads):
+        p, st = hertz_rows(P)
+        p_file, x_file = convert(p, X)
+        write_step(folder / f"s{k}.csv", p_file, st, x=x_file)
+        rows.append(f"1,{P * load_factor!r},0.0,0.0,s{k}.csv")
+    (folder / "steps.csv").write_text(head + "stage,P,Q,M,file\n" + "\n".join(rows) + "\n")
+    return folder / "steps.csv"
+
+
+def test_synthetic_analytic_result_verifies(tmp_path):
+    res = verify(CASE, write_result(tmp_path / "r"))
+    assert res.passed
+    assert res.metrics["edge_error_max"] < SAMPLED_EDGE_RTOL
+    assert res.metrics["pressure_l2_error"] < 1e-12
+    assert math.isnan(res.metrics["stick_edge_error_max"])
+    assert set(res.unavailable) == {"stress_l2_error", "stress_shape_error"}  # no body fields
+
+
+@pytest.mark.parametrize("head, convert, load_factor", [
+    ("# pressure_sign = -1\n", lambda p, x: (-p, x), 1.0),
+    ("# x_origin = 3.5\n", lambda p, x: (p, x + 3.5), 1.0),
+    # file in mm and kPa with a case in m and MPa: P [MN/m] = 1e-3 * 1e-3 * P_file [kN/mm]
+    ("# length_scale = 1e-3\n# stress_scale = 1e-3\n", lambda p, x: (p * 1e3, x * 1e3), 1e6),
+])
+def test_conventions_give_the_same_metrics(tmp_path, head, convert, load_factor):
+    ref = verify(CASE, write_result(tmp_path / "ref")).metrics
+    got = verify(CASE, write_result(tmp_path / "conv", head=head, convert=convert,
+                                    load_factor=load_factor)).metrics
+    for k, v in ref.items():
+        assert got[k] == pytest.approx(v, rel=1e-9, abs=1e-12, nan_ok=True), k
+
+
+def test_force_values_divided_by_w(tmp_path):
+    ref = verify(CASE, write_result(tmp_path / "ref")).metrics
+    folder = tmp_path / "force"
+    write_result(folder, head="# values = force\n")
+    for k, P in enumerate((50.0, 100.0)):
+        p, st = hertz_rows(P)
+        w = np.full(X.size, X[1] - X[0])
+        write_step(folder / f"s{k}.csv", p * w, st, extra={"w": w})
+    got = verify(CASE, folder).metrics
+    assert got["pressure_l2_error"] == pytest.approx(ref["pressure_l2_error"], abs=1e-12)
+    assert got["edge_error_max"] == pytest.approx(ref["edge_error_max"], rel=1e-9)
+
+
+def test_step_files_without_manifest(tmp_path):
+    folder = tmp_path / "files"
+    folder.mkdir()
+    for k, P in enumerate((50.0, 100.0)):
+        p, st = hertz_rows(P)
+        write_step(folder / f"step{k}.csv", p, st,
+                   header=f"# code = mycode\n# stage = 1\n# P = {P}\n# Q = 0\n# M = 0\n")
+    res = verify(CASE, folder)
+    assert res.passed and "mycode" in res.source
+
+
+def _bad(tmp_path, mutate) -> str:
+    f = write_result(tmp_path / "bad")
+    mutate(f, f.parent / "s1.csv")
+    with pytest.raises(CaseError) as exc:
+        verify(CASE, f)
+    return str(exc.value)
+
+
+def _edit(path, old, new, count=1):
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, count))
+
+
+def _line(path, no, new):
+    lines = path.read_text().splitlines()
+    lines[no - 1] = new
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("mutate, words", [
+    (lambda m, s: _edit(s, "x,p,q,status", "x,p,status"), ["s1.csv", "missing column 'q'"]),
+    (lambda m, s: _line(s, 5, "0.1,nan,0.0,1"), ["s1.csv, line 5", "'p'", "finite"]),
+    (lambda m, s: _line(s, 5, "-0.1999,1.0,0.0,1"), ["s1.csv", "x must increase strictly"]),
+    (lambda m, s: _line(s, 5, "-0.1975,1.0,0.0,4"), ["s1.csv, line 5", "status '4'"]),
+    (lambda m, s: _line(s, 5, "-0.1975,1.0"), ["s1.csv, line 5", "2 values, expected 4"]),
+    (lambda m, s: _edit(m, "1,100.0,", "1,140.0,"), ["steps.csv, line 3", "P = 140",
+                                                      "does not match the case"]),
+    (lambda m, s: _edit(m, "1,100.0,0.0", "1,100.0,25.0"), ["steps.csv, line 3", "stage-1 step",
+                                                                   "Q = 25"]),
+    (lambda m, s: _edit(m, "1,50.0,", "4,50.0,"), ["steps.csv, line 2", "stage '4'"]),
+    (lambda m, s: _edit(m, "s1.csv", "nope.csv"), ["steps.csv, line 3", "'nope.csv' not found"]),
+    (lambda m, s: m.write_text("# colour = red\n" + m.read_text()),
+     ["unknown header key 'colour'", "allowed"]),
+    (lambda m, s: m.write_text("# pressure_sign = 2\n" + m.read_text()),
+     ["pressure_sign = 2 is not allowed", "1, -1"]),
+])
+def test_bad_files_one_clear_error(tmp_path, mutate, words):
+    msg = _bad(tmp_path, mutate)
+    assert all(w in msg for w in words), msg
+    assert "\n" not in msg
+
+
+def test_missing_result_path():
+    with pytest.raises(CaseError, match="no such file"):
+        read_result("/nonexistent/steps.csv")
+
+
+def test_assert_agrees_fails_on_an_asked_metric_the_result_lacks(tmp_path):
+    """Stage-1 steps without M: moment_error is not available; asking for it fails."""
+    from compare.testing import DisagreementError, assert_agrees
+
+    f = write_result(tmp_path / "noM")
+    f.write_text(f.read_text().replace("stage,P,Q,M,file", "stage,P,Q,file")
+                 .replace(",0.0,0.0,s", ",0.0,s"))
+    res = verify(CASE, f)
+    assert "moment_error" in res.unavailable
+    assert_agrees(res)
+    with pytest.raises(DisagreementError, match="moment_error: the result gives no M"):
+        assert_agrees(res, moment_atol=0.01)
+
+
+def write_series(folder, loads=(50.0, 100.0), fields=("stage", "P", "Q", "M"), p_edit=None):
+    """A .pvd series of interface .vtu lines (fem.vtk's writer) from the synthetic result."""
+    import meshio
+
+    from fem.vtk import atomic_write_mesh
+
+    folder.mkdir(exist_ok=True)
+    entries = []
+    for k, P in enumerate(loads):
+        p, st = hertz_rows(P)
+        p = p_edit(p) if p_edit and k == 1 else p
+        mesh = meshio.Mesh(np.c_[X, 0 * X, 0 * X], [("line", np.c_[np.arange(X.size - 1),
+                                                                    np.arange(1, X.size)])],
+                           point_data={"p": p, "q": 0 * p, "status": st.astype(np.int32)})
+        values = {"stage": 1, "P": P, "Q": 0.0, "M": 0.0}
+        atomic_write_mesh(mesh, folder / f"i{k}.vtu", {f: values[f] for f in fields})
+        entries.append(f'<DataSet timestep="{k}" part="0" file="i{k}.vtu"/>')
+    pvd = folder / "series.pvd"
+    pvd.write_text('<?xml version="1.0"?><VTKFile type="Collection"><Collection>'
+                   + "".join(entries) + "</Collection></VTKFile>")
+    return pvd
+
+
+def test_vtk_series_verifies_like_csv(tmp_path):
+    a = verify(CASE, write_result(tmp_path / "csv")).metrics
+    b = verify(CASE, write_series(tmp_path / "vtk")).metrics
+    for k, v in a.items():
+        assert b[k] == pytest.approx(v, rel=1e-12, abs=1e-300, nan_ok=True), k
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"fields": ("P", "Q")}, ["series.pvd, step 0 (i0.vtu)", "missing field data 'stage'"]),
+    ({"p_edit": lambda p: np.where(p > 0, np.nan, p)}, ["step 1 (i1.vtu)", "'p' is nan"]),
+])
+def test_bad_vtk_series_one_clear_error(tmp_path, kwargs, words):
+    with pytest.raises(CaseError) as exc:
+        verify(CASE, write_series(tmp_path / "bad", **kwargs))
+    assert all(w in str(exc.value) for w in words), str(exc.value)
+
+
+def test_vtk_series_missing_file_and_no_interface(tmp_path):
+    pvd = write_series(tmp_path / "s")
+    (tmp_path / "s" / "i1.vtu").unlink()
+    with pytest.raises(CaseError, match="step 1.*'i1.vtu' not found"):
+        read_result(pvd)
+    pvd.write_text("<VTKFile><Collection></Collection></VTKFile>")
+    with pytest.raises(CaseError, match="DataSet"):
+        read_result(pvd)
+
+
+def test_applied_moment_must_match(tmp_path):
+    """An applied-moment case: the result's M at the end of stage 1 is checked against it."""
+    from dataclasses import replace
+
+    case = replace(CASE, M=5.0)
+    with pytest.raises(CaseError, match=r"steps.csv, line 3.*M = 0 at the end of stage 1.*\(5"):
+        verify(case, write_result(tmp_path / "m"))
+
+
+def test_stage_1_only_result_against_a_case_with_q0(tmp_path):
+    with pytest.raises(CaseError, match="no stage-2 steps but the case has Q0 = 18"):
+        verify(load_case("cattaneo"), write_result(tmp_path / "s1"))
+
+
+def test_deformed_x_with_ux_gives_the_same_metrics(tmp_path):
+    ref = verify(CASE, write_result(tmp_path / "ref")).metrics
+    folder = tmp_path / "deformed"
+    write_result(folder, head="# x = deformed\n")
+    ux = 1e-4 * np.sin(7.0 * X)  # any tangential displacement that keeps x sorted
+    for k, P in enumerate((50.0, 100.0)):
+        p, st = hertz_rows(P)
+        write_step(folder / f"s{k}.csv", p, st, x=X + ux, extra={"ux": ux})
+    got = verify(CASE, folder).metrics
+    for k, v in ref.items():
+        assert got[k] == pytest.approx(v, rel=1e-9, abs=1e-12, nan_ok=True), k
+    (folder / "s1.csv").write_text((folder / "s1.csv").read_text().replace(",ux", ",uy"))
+    with pytest.raises(CaseError, match="s1.csv: missing column 'ux'"):
+        verify(CASE, folder)
