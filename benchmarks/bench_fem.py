@@ -123,6 +123,13 @@ def level_row(level: int) -> dict:
                 stick=res.metrics["stick_edge_error_max"])
 
 
+def local_order(prev: dict | None, row: dict, key: str) -> float:
+    """Order of ``key`` between two successive levels (nan for the first)."""
+    if prev is None:
+        return float("nan")
+    return float(np.log(prev[key] / row[key]) / np.log(row["a_over_h"] / prev["a_over_h"]))
+
+
 def exponent(n: list[float], y: list[float]) -> float:
     """Least-squares slope of log y against log n."""
     return float(np.polyfit(np.log(n), np.log(y), 1)[0])
@@ -136,14 +143,13 @@ def accuracy_table(levels: list[int]) -> None:
             rows.append(pool.submit(level_row, level).result())
     print("Hertz (stage 1) + Cattaneo (stages 2-3), library case cattaneo, uniform refinement")
     print(f"{'':<8}{'a/h':>6}{'DOFs':>9}{'iface':>7}{'history s':>10}{'memory MB':>10}"
-          f"{'edge %':>9}{'stick %':>9}{'edge order':>11}")
+          f"{'edge %':>9}{'stick %':>9}{'edge order':>11}{'stick order':>12}")
     prev = None
     for r in rows:
-        order = (np.log(prev["edge"] / r["edge"]) / np.log(r["a_over_h"] / prev["a_over_h"])
-                 if prev else float("nan"))
         print(f"{'level ' + str(r['level']):<8}{r['a_over_h']:>6.0f}{r['dofs']:>9}"
               f"{r['nodes']:>7}{r['history']:>10.2f}{r['memory']:>10.0f}"
-              f"{100 * r['edge']:>9.4f}{100 * r['stick']:>9.4f}{order:>11.2f}")
+              f"{100 * r['edge']:>9.4f}{100 * r['stick']:>9.4f}"
+              f"{local_order(prev, r, 'edge'):>11.2f}{local_order(prev, r, 'stick'):>12.2f}")
         prev = r
     for a_h, wall, edge, stick in KRATOS:
         print(f"{'Kratos':<8}{a_h:>6}{'':>9}{'':>7}{wall:>10.1f}{'':>10}{100 * edge:>9.4f}"

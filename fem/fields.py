@@ -9,8 +9,9 @@ motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are recovered a
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.linalg import splu
-from skfem import BilinearForm, LinearForm, asm
+from skfem import BilinearForm, asm
 from skfem.helpers import sym_grad
 
 from .condense import pair_loads
@@ -91,13 +92,27 @@ class FieldRecovery:
             lam * tr,
         )
         if body not in self._mass:  # one factorisation per body for every projection
-            self._mass[body] = splu(asm(_MASS, scalar).tocsc())
-        return np.array([self._mass[body].solve(asm(_LOAD, scalar, f=np.asarray(c)))
-                         for c in comps])
+            self._mass[body] = (splu(asm(_MASS, scalar).tocsc()), load_operator(scalar))
+        mass, load = self._mass[body]
+        rhs = load @ np.stack([np.asarray(c).ravel() for c in comps], axis=1)
+        return mass.solve(rhs).T
 
 
 _MASS = BilinearForm(lambda u, v, w: u * v)
-_LOAD = LinearForm(lambda v, w: w.f * v)
+
+
+def load_operator(scalar) -> csr_matrix:
+    """Sparse B with ``B @ f.ravel() = asm(LinearForm(f v), scalar)`` for a field f given at
+    the quadrature points (shape (n_elements, n_points)): B[dof, (e, k)] = phi(x_ek) dx_ek."""
+    n_el, n_qp = scalar.dx.shape
+    cols = np.arange(n_el * n_qp).reshape(n_el, n_qp)
+    rows, cc, vals = [], [], []
+    for i, phi in enumerate(scalar.basis):
+        rows.append(np.repeat(scalar.element_dofs[i], n_qp))
+        cc.append(cols.ravel())
+        vals.append((phi[0].value * scalar.dx).ravel())
+    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cc))),
+                      shape=(scalar.N, n_el * n_qp)).tocsr()
 
 
 def von_mises(s: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import analytic  # noqa: E402
+from compare._memo import memo  # noqa: E402
 from compare.run import CaseResult  # noqa: E402
 
 DPI = 90
@@ -34,7 +35,7 @@ def stick_cycle_figure(res: CaseResult) -> bytes | None:
     if res.case.Q0 == 0:
         return None
     Q0 = res.case.Q0
-    cyc = analytic.cycle(res.analytic.normal, res.case.mu, Q0, n=3 * CYCLE_POINTS + 1)
+    cyc = analytic_cycle(res)
     keep = cyc.stage <= 3  # the FE history covers stages 2 and 3
     t_an = np.array([_t(st, q, Q0) for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
     edges = cyc.stick_edges[keep]  # nan where a zone is in full slip
@@ -53,6 +54,13 @@ def stick_cycle_figure(res: CaseResult) -> bytes | None:
            title=f"{res.case.name}: stick zones over the cycle (grey: contact zones)")
     ax.legend(fontsize=8)
     return png(fig)
+
+
+def analytic_cycle(res: CaseResult):
+    """The analytic load cycle of the figures (solved once per case: two figures draw it)."""
+    normal, mu, Q0 = res.analytic.normal, res.case.mu, res.case.Q0
+    return memo(normal, ("cycle", mu, Q0, CYCLE_POINTS),
+                lambda: analytic.cycle(normal, mu, Q0, n=3 * CYCLE_POINTS + 1))
 
 
 def _t(stage: int, Q: float, Q0: float) -> float:
