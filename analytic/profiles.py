@@ -111,8 +111,21 @@ class Profile:
         return out
 
     def h0(self, x: np.ndarray) -> np.ndarray:
-        """Initial gap ``h0(x)``; ``+inf`` outside the support."""
-        return self._eval(x, "h", INF)
+        """Initial gap ``h0(x)``; ``+inf`` outside the support.  At a step between two touching
+        pieces (a sharp corner of a union) the lower side holds, as ``h0 = min`` of the members."""
+        x = np.asarray(x, dtype=float)
+        out = self._eval(x, "h", INF)
+        for k in self._joints:
+            at = x == self.pieces[k].hi
+            if np.any(at):
+                out[at] = np.minimum(out[at], self.pieces[k + 1].h(x[at]))
+        return out
+
+    @cached_property
+    def _joints(self) -> tuple[int, ...]:
+        """Indices k of pieces whose right end is the left end of piece k + 1."""
+        pairs = zip(self.pieces, self.pieces[1:], strict=False)
+        return tuple(k for k, (a, b) in enumerate(pairs) if a.hi == b.lo)
 
     def dh0(self, x: np.ndarray) -> np.ndarray:
         """Slope ``h0'(x)`` (right-continuous at kinks); ``nan`` outside the support."""

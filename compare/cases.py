@@ -48,7 +48,7 @@ MATERIAL_KEYS = {"E": REQUIRED, "nu": REQUIRED, "A": None}
 LOAD_KEYS = {"P": REQUIRED, "mu": REQUIRED, "Q0": None, "Q0_ratio": None, "M": None}
 SAMPLE_KEYS = {"stage2": [0.5, 0.75, 1.0], "stage3": [0.0, -0.5, -1.0]}
 FEM_KEYS = {"level": 1, "order": 1, "mesh_file": "", "penalty_factor": 100.0,
-            "augmented": False, "n_normal": 10, "n_tangential": 8, "size_factor": 25.0,
+            "augmented": False, "n_normal": 10, "n_tangential": 8, "size_factor": 8.0,
             "window_margin": 0.05, "growth": 1.2}
 #: Allowed ranges of the numeric FE settings (test, what is allowed).
 FEM_RANGES = {
@@ -84,7 +84,7 @@ class FemSettings:
     augmented: bool = False
     n_normal: int = 10
     n_tangential: int = 8
-    size_factor: float = 25.0
+    size_factor: float = 8.0
     window_margin: float = 0.05
     growth: float = 1.2
 

@@ -161,7 +161,7 @@ def cmd_verify(args) -> int:
 
 
 def cmd_converge(args) -> int:
-    from compare.convergence import convergence
+    from compare.convergence import convergence, convergence_text
 
     case = _case(args, args.case)
     with _progress() as prog:
@@ -172,11 +172,7 @@ def cmd_converge(args) -> int:
     if args.json:
         _print_json(st.summary())
     else:
-        print(f"{case.name}: {args.kind}-convergence, converges: {st.converges}")
-        for m, vals in st.errors.items():
-            print(f"  {m:<22} " + " ".join(f"{v:10.3e}" for v in vals)
-                  + f"   order {st.orders[m]:.2f}")
-        print(f"  Richardson edge error / width: {st.richardson_error:.3e}")
+        print(convergence_text(st))
     return EXIT_OK if st.converges else EXIT_FAIL
 
 
@@ -245,7 +241,8 @@ def parser() -> argparse.ArgumentParser:
     sp.add_argument("--kind", choices=("h", "penalty", "domain"), default="h")
     sp.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2])
     sp.add_argument("--values", type=float, nargs="+",
-                    help="penalty factors or size factors (kinds penalty / domain)")
+                    help="penalty factors (inf: augmented Lagrangian) or size factors (kinds "
+                         "penalty / domain)")
     sp = add("report", cmd_report, "verification report (index.html, report.md, summary.json)")
     sp.add_argument("cases", nargs="*", help="cases (default: the default suite)")
     sp.add_argument("-o", "--out", default="report", help="output directory (default report)")

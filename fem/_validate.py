@@ -83,9 +83,7 @@ def check_settings(h0, mesh, contact, increments, kinks, window, vtk_dir, backen
         check_load_path(increments)
     _vector("kinks", kinks, 0)
     if window is not None:
-        w = _vector("window", window, 2)
-        if w.size != 2 or not w[1] > w[0]:
-            raise refuse("window", window, "None or (xmin, xmax) with finite xmin < xmax")
+        _windows(window)
     if not (vtk_dir is None or isinstance(vtk_dir, (str, Path))):
         raise refuse("vtk_dir", vtk_dir, "None or a directory path")
     if not isinstance(backend, str) or backend not in BACKENDS:
@@ -105,6 +103,23 @@ def _vector(name: str, value: object, min_size: int) -> np.ndarray:
     arr = arr.astype(float).reshape(-1)
     if not np.all(np.isfinite(arr)):
         raise refuse(name, value, need)
+    return arr
+
+
+def _windows(window: object) -> np.ndarray:
+    """``(xmin, xmax)`` or one such pair per expected zone, as an (n, 2) array."""
+    need = "None, (xmin, xmax) or a sequence of (xmin, xmax) pairs, with finite xmin < xmax"
+    if isinstance(window, (str, bytes)):
+        raise refuse("window", window, need)
+    try:
+        arr = np.asarray(window)
+    except (TypeError, ValueError):
+        raise refuse("window", window, need) from None
+    if arr.dtype.kind not in "iuf" or arr.ndim not in (1, 2) or arr.shape[-1] != 2 or arr.size < 2:
+        raise refuse("window", window, need)
+    arr = arr.astype(float).reshape(-1, 2)
+    if not (np.all(np.isfinite(arr)) and np.all(arr[:, 1] > arr[:, 0])):
+        raise refuse("window", window, need)
     return arr
 
 

@@ -27,6 +27,8 @@ from skfem.models.elasticity import lame_parameters, linear_elasticity
 from .mesh import TwoBodyMesh
 
 ELEMENTS = {1: ElementQuad1, 2: ElementQuad2}
+#: Nodes with |y| below this (length) lie on the interface line (as in fem.mesh.from_bodies).
+INTERFACE_ATOL = 1e-12
 
 
 @dataclass(frozen=True)
@@ -48,7 +50,8 @@ class Discretisation:
     """Assembled two-body problem: bases, stiffness matrices, fixed dofs, interface.
 
     bases, scalar_bases: per body (vector and scalar). stiffness: (K1, K2).
-    fixed: dofs of body 1's top (tied to the plate) and body 2's bottom (clamped).
+    fixed: prescribed dofs of body 1 (top, or the whole outer boundary with
+    boundary='half-plane') and body 2 (bottom, or its whole outer boundary).
     E, nu: material; order: element order.
     """
 
@@ -61,6 +64,7 @@ class Discretisation:
     stiffness: tuple
     fixed: tuple
     interface: Interface
+    boundary: str = "clamped"
 
     @property
     def n_dofs(self) -> int:
@@ -102,15 +106,33 @@ def interface_side(mesh: MeshQuad, nodes: np.ndarray, order: int):
     return x[order_x], weights[dofs[order_x]], dofs[order_x]
 
 
-def discretise(mesh: TwoBodyMesh, order: int, E: float, nu: float) -> Discretisation:
-    """Assemble both bodies and pair their interface dofs."""
+def outer_facets(mesh: MeshQuad) -> np.ndarray:
+    """Boundary facets off the interface line y = 0 (the far-field boundary of a body)."""
+    bf = mesh.boundary_facets()
+    on_interface = np.all(np.abs(mesh.p[1, mesh.facets[:, bf]]) <= INTERFACE_ATOL, axis=0)
+    return bf[~on_interface]
+
+
+def discretise(
+    mesh: TwoBodyMesh, order: int, E: float, nu: float, boundary: str = "clamped"
+) -> Discretisation:
+    """Assemble both bodies and pair their interface dofs.
+
+    boundary: 'clamped' (body 1's top and body 2's bottom fixed, the sides free) or
+    'half-plane' (every boundary dof off y = 0 fixed; fem.farfield prescribes it).
+    """
     (b1, K1), (b2, K2) = (stiffness(m, order, E, nu) for m in mesh.bodies)
     x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order)
     x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order)
-    fixed = (
-        b1.get_dofs(facets_on(mesh.bodies[0], mesh.nodes["top"])).all(),
-        b2.get_dofs(facets_on(mesh.bodies[1], mesh.nodes["bottom"])).all(),
-    )
+    if boundary == "half-plane":
+        fixed = tuple(
+            b.get_dofs(outer_facets(m)).all() for b, m in zip((b1, b2), mesh.bodies, strict=True)
+        )
+    else:
+        fixed = (
+            b1.get_dofs(facets_on(mesh.bodies[0], mesh.nodes["top"])).all(),
+            b2.get_dofs(facets_on(mesh.bodies[1], mesh.nodes["bottom"])).all(),
+        )
     iface = Interface(x=0.5 * (x1 + x2), w=0.5 * (w1 + w2), dof1=d1, dof2=d2)
     scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
     return Discretisation(
@@ -123,6 +145,7 @@ def discretise(mesh: TwoBodyMesh, order: int, E: float, nu: float) -> Discretisa
         stiffness=(K1, K2),
         fixed=fixed,
         interface=iface,
+        boundary=boundary,
     )
 
 

@@ -86,8 +86,10 @@ def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Fac
     chol = cholesky(K[perm][:, perm].tocsc(), ordering_method="natural")
     m = gamma.size
     L22 = chol.L()[-m:, -m:].toarray()
-    Sinv_E = np.linalg.solve(L22 @ L22.T, np.r_[np.eye(f1.size), -np.eye(f1.size)])
-    C = Sinv_E[: f1.size] - Sinv_E[f1.size :]
+    # S = L22 L22^T, C = E^T S^-1 E = Y^T Y with Y = L22^-1 E (one triangular solve: ~4x
+    # fewer flops than forming S and solving with it, and C symmetric by construction)
+    Y = solve_triangular(L22, np.r_[np.eye(f1.size), -np.eye(f1.size)], lower=True)
+    C = Y.T @ Y
 
     def solve(b: np.ndarray) -> np.ndarray:
         out = np.empty_like(np.asarray(b, dtype=float))
@@ -103,4 +105,4 @@ def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Fac
         return out
 
     factor = Factor(backend="cholmod", solve=solve, n=K.shape[0], solve_pairs=solve_pairs)
-    return factor, 0.5 * (C + C.T)
+    return factor, C

@@ -9,6 +9,9 @@ motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are recovered a
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse.linalg import splu
+from skfem import BilinearForm, asm
 from skfem.helpers import sym_grad
 
 from .condense import pair_loads
@@ -28,7 +31,10 @@ class FieldRecovery:
         rx = np.where(is_x[:, None], F1[top], 0.0)
         ry = np.where(~is_x[:, None], F1[top], 0.0)
         self._reactions = np.c_[-ry.sum(axis=0), rx.sum(axis=0), -(xy[0] @ ry - xy[1] @ rx)]
+        #: Largest lever arm (about (0, 0)) of the plate reaction forces (length).
+        self.lever = float(np.max(np.hypot(xy[0], xy[1])))
         self._stress = {}
+        self._mass = {}
 
     @classmethod
     def from_states(cls, model, states) -> FieldRecovery:
@@ -42,6 +48,8 @@ class FieldRecovery:
         N1 = disc.bases[0].N
         U = np.zeros((disc.n_dofs, lam.shape[1]))
         U[model.free] = Uf
+        if model.far is not None:
+            U += model.far.displacement(lam)
         U1, U2 = U[:N1], U[N1:]
         loc = disc.bases[0].doflocs
         z = np.array([s.z for s in states]).T
@@ -83,7 +91,28 @@ class FieldRecovery:
             2 * mu * eps[0, 1],
             lam * tr,
         )
-        return np.array([scalar.project(np.asarray(c)) for c in comps])
+        if body not in self._mass:  # one factorisation per body for every projection
+            self._mass[body] = (splu(asm(_MASS, scalar).tocsc()), load_operator(scalar))
+        mass, load = self._mass[body]
+        rhs = load @ np.stack([np.asarray(c).ravel() for c in comps], axis=1)
+        return mass.solve(rhs).T
+
+
+_MASS = BilinearForm(lambda u, v, w: u * v)
+
+
+def load_operator(scalar) -> csr_matrix:
+    """Sparse B with ``B @ f.ravel() = asm(LinearForm(f v), scalar)`` for a field f given at
+    the quadrature points (shape (n_elements, n_points)): B[dof, (e, k)] = phi(x_ek) dx_ek."""
+    n_el, n_qp = scalar.dx.shape
+    cols = np.arange(n_el * n_qp).reshape(n_el, n_qp)
+    rows, cc, vals = [], [], []
+    for i, phi in enumerate(scalar.basis):
+        rows.append(np.repeat(scalar.element_dofs[i], n_qp))
+        cc.append(cols.ravel())
+        vals.append((phi[0].value * scalar.dx).ravel())
+    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cc))),
+                      shape=(scalar.N, n_el * n_qp)).tocsr()
 
 
 def von_mises(s: np.ndarray) -> np.ndarray:

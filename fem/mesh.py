@@ -24,6 +24,9 @@ from .settings import MeshFile, MeshSpec, validate_mesh_spec
 BOUNDARY_NAMES = ("contact_upper", "contact_lower", "top", "bottom")
 #: Relative tolerance (to the smallest interface element) for matching node x.
 MATCH_TOL = 1e-6
+#: Depth (multiple of the widest window) of the near-field grading under the contact: at 0.5
+#: the Hertz width stayed 0.033 % short at level 1, at 2 0.020 %, at 4 0.019 % (1.1x the dofs).
+NEAR_DEPTH = 2.0
 
 
 @dataclass(frozen=True)
@@ -57,24 +60,98 @@ def graded_sizes(first: float, length: float, growth: float) -> np.ndarray:
     return sizes * (length / sizes.sum())
 
 
-def window_axis(
-    window: tuple[float, float], kinks, h: float, spec: MeshSpec, W: float
-) -> np.ndarray:
-    """Node x: uniform size h in the window (+margin), nodes at kinks, graded out to +-W."""
-    width = window[1] - window[0]
-    xl, xr = window[0] - spec.margin * width, window[1] + spec.margin * width
-    xc = 0.5 * (window[0] + window[1])
+def as_windows(window) -> tuple[tuple[float, float], ...]:
+    """One window (xmin, xmax) or several ((xmin, xmax), ...) as a sorted tuple of disjoint
+    windows (overlapping ones are merged)."""
+    arr = np.asarray(window, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 1:
+        raise InputError(
+            f"window={window!r} is not allowed: need (xmin, xmax) or a sequence of such pairs"
+        )
+    for lo, hi in arr:
+        if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+            raise InputError(f"window=({lo!r}, {hi!r}) is not allowed: need finite xmin < xmax")
+    merged: list[list[float]] = []
+    for lo, hi in sorted(arr.tolist()):
+        if merged and lo <= merged[-1][1]:  # overlapping windows: their union
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    return tuple((float(lo), float(hi)) for lo, hi in merged)
+
+
+def fine_regions(windows, spec: MeshSpec) -> list[list[float]]:
+    """[xl, xr, h] of each window widened by its margin, with its own element size
+    ``h = width / (n_window 2**level)``.  Where two widened windows overlap they are cut
+    half-way between the windows; the coarser one then gives up the length its grading down
+    to the finer size needs, ``|h0 - h1| / (growth - 1)`` (a zone next to a much narrower one
+    is graded at that edge: finer, never coarser)."""
+    out = []
+    for lo, hi in windows:
+        width = hi - lo
+        out.append([lo - spec.margin * width, hi + spec.margin * width, width / spec_cells(spec)])
+    for k, ((_, hi0), (lo1, _)) in enumerate(zip(windows[:-1], windows[1:], strict=True)):
+        left, right = out[k], out[k + 1]
+        if left[1] > right[0]:
+            left[1] = right[0] = 0.5 * (hi0 + lo1)
+        need = abs(left[2] - right[2]) / (spec.growth - 1.0) - (right[0] - left[1])
+        if need > 0 and left[2] > right[2]:
+            left[1] = max(left[1] - need, left[0] + left[2])
+        elif need > 0:
+            right[0] = min(right[0] + need, right[1] - right[2])
+    return out
+
+
+def spec_cells(spec: MeshSpec) -> float:
+    """Elements across one window: ``n_window 2**level``."""
+    return spec.n_window * 2.0**spec.level
+
+
+def uniform_axis(xl: float, xr: float, h: float, kinks) -> np.ndarray:
+    """Nodes of size <= h on [xl, xr] (both ends included) with a node on every kink inside."""
     inner = [k for k in sorted(set(float(k) for k in kinks)) if xl < k < xr]
     breaks = [xl, *inner, xr]
     fine = [
         np.linspace(a, b, max(1, int(np.ceil((b - a) / h - 1e-9))) + 1)[:-1]
         for a, b in zip(breaks[:-1], breaks[1:], strict=True)
     ]
-    core = np.r_[np.concatenate(fine), xr]
-    left = xl - np.cumsum(graded_sizes(h * spec.growth, xl - (xc - W), spec.growth))
-    right = xr + np.cumsum(graded_sizes(h * spec.growth, xc + W - xr, spec.growth))
-    x = np.r_[left[::-1], core, right]
-    return snap_kinks(x, [k for k in kinks if not xl < k < xr])
+    return np.r_[np.concatenate(fine), xr]
+
+
+def graded_gap(a: float, b: float, ha: float, hb: float, growth: float) -> np.ndarray:
+    """Interior nodes of (a, b), graded from size ha at a and hb at b, coarsest in between
+    (where the two geometric gradings ``h + (growth - 1) distance`` meet)."""
+    meet = 0.5 * (a + b + (hb - ha) / (growth - 1.0))
+    meet = float(np.clip(meet, a, b))
+    if meet - a < ha * growth:  # no room for a graded run on that side: one run fills the gap
+        meet = a
+    elif b - meet < hb * growth:
+        meet = b
+    left = a + np.cumsum(graded_sizes(ha * growth, meet - a, growth))[:-1]
+    right = b - np.cumsum(graded_sizes(hb * growth, b - meet, growth))[:-1]
+    return np.r_[left, [meet] if a < meet < b else [], right[::-1]]
+
+
+def window_axis(windows, kinks, spec: MeshSpec, W: float) -> np.ndarray:
+    """Node x: a uniform fine size in every window (+ margin; size relative to its own width),
+    nodes at kinks, graded across the gaps between windows and out to +-W (each graded run
+    starts at growth times the spacing it continues)."""
+    regions = fine_regions(windows, spec)
+    xc = 0.5 * (windows[0][0] + windows[-1][1])
+    fine = [uniform_axis(*r, kinks) for r in regions]
+    g = spec.growth
+    parts = [fine[0]]
+    for a, b in zip(fine[:-1], fine[1:], strict=True):
+        gap = graded_gap(a[-1], b[0], a[-1] - a[-2], b[1] - b[0], g)
+        parts += [gap, b[1:] if b[0] == a[-1] else b]
+    xl, xr = fine[0][0], fine[-1][-1]
+    left = xl - np.cumsum(graded_sizes((fine[0][1] - xl) * g, xl - (xc - W), g))
+    right = xr + np.cumsum(graded_sizes((xr - fine[-1][-2]) * g, xc + W - xr, g))
+    x = np.r_[left[::-1], np.concatenate(parts), right]
+    inside = [k for k in kinks if any(a < k < b for a, b, _ in regions)]
+    return snap_kinks(x, [k for k in kinks if k not in inside])
 
 
 def snap_kinks(x: np.ndarray, kinks) -> np.ndarray:
@@ -89,22 +166,45 @@ def snap_kinks(x: np.ndarray, kinks) -> np.ndarray:
     return x
 
 
-def build_mesh(spec: MeshSpec, window: tuple[float, float], kinks=()) -> TwoBodyMesh:
-    """Generate the graded tensor-product two-body mesh for a contact window."""
+def near_growth(spec: MeshSpec) -> float:
+    """Depth growth ratio in the near field of the contact: ``1 + (growth - 1)
+    2**(-(level + 1) / 2)``.  The Q1 error there scales like (ratio - 1)**2 (the Hertz width
+    was 0.09 % short at every level with the ratio fixed at 1.2); this makes it fall like h."""
+    return 1.0 + (spec.growth - 1.0) * 2.0 ** (-(spec.level + 1) / 2)
+
+
+def depth_axis(h: float, H: float, near: float, spec: MeshSpec) -> np.ndarray:
+    """Layer depths from 0 (excluded) to H: graded from h by :func:`near_growth` down to the
+    depth ``near`` (the widest window: the near field of every zone), then by ``growth``."""
+    near = min(near, H)
+    top = np.cumsum(graded_sizes(h, near, near_growth(spec)))
+    if near >= H:
+        return top
+    last = top[-1] - top[-2] if top.size > 1 else top[-1]
+    return np.r_[top, near + np.cumsum(graded_sizes(last * spec.growth, H - near, spec.growth))]
+
+
+def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
+    """Generate the graded tensor-product two-body mesh refined in one window (xmin, xmax) or
+    in several ((xmin, xmax), ...), e.g. one per expected contact zone."""
     validate_mesh_spec(spec)
-    if not (np.isfinite(window[0]) and np.isfinite(window[1]) and window[1] > window[0]):
-        raise InputError(f"window={tuple(window)!r} is not allowed: need finite xmin < xmax")
-    width = window[1] - window[0]
-    h = width / (spec.n_window * 2.0**spec.level)
-    W = spec.W if spec.W is not None else spec.size_factor * 0.5 * width
+    windows = as_windows(window)
+    span = windows[-1][1] - windows[0][0]
+    W = spec.W if spec.W is not None else spec.size_factor * 0.5 * span
     H = spec.H if spec.H is not None else W
-    if W <= (0.5 + spec.margin) * width * 1.05:
+    regions = fine_regions(windows, spec)
+    half = max(
+        0.5 * (windows[0][0] + windows[-1][1]) - regions[0][0],
+        regions[-1][1] - 0.5 * (windows[0][0] + windows[-1][1]),
+    )
+    if W <= half * 1.05:
         raise InputError(
-            f"W={W:g} is not allowed: need W > {(0.5 + spec.margin) * width * 1.05:g} "
+            f"W={W:g} is not allowed: need W > {half * 1.05:g} "
             "(the window plus its margin must fit in the bodies)"
         )
-    x = window_axis(window, kinks, h, spec, W)
-    depth = np.cumsum(graded_sizes(h, H, spec.growth))
+    x = window_axis(windows, kinks, spec, W)
+    h = min(r[2] for r in regions)
+    depth = depth_axis(h, H, NEAR_DEPTH * max(b - a for a, b in windows), spec)
     lower = MeshQuad.init_tensor(x, np.r_[-depth[::-1], 0.0])
     upper = MeshQuad.init_tensor(x, np.r_[0.0, depth])
     return from_bodies(upper, lower, "generated")

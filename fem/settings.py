@@ -15,10 +15,10 @@ from .errors import InputError
 
 #: Elements across the contact window at level 0 (the default mesh is level 1).
 N_WINDOW_LEVEL0 = 48
-#: Default half-width and depth as multiples of the window half-width: large enough
-#: that the finite-body error on the Hertz width stays well below 0.5 % (measured in
-#: tests/verification/test_fem_hertz.py::test_hertz_finite_size).
-SIZE_FACTOR = 25.0
+#: Default half-width and depth as multiples of the window half-width. With the half-plane
+#: boundary the Hertz width does not depend on it beyond the far-field multipole truncation:
+#: level 3 moment width -0.0811 / -0.0872 / -0.0891 / -0.0888 % at 3 / 6 / 12.5 / 100.
+SIZE_FACTOR = 8.0
 
 
 @dataclass(frozen=True)
@@ -32,9 +32,14 @@ class MeshSpec:
         default ``size_factor`` times the window half-width.
     H: depth of each body (length); default = W.
     n_window: elements across the window at level 0.
-    growth: geometric growth ratio of element sizes away from the window (> 1).
+    growth: geometric growth ratio of element sizes away from the windows (> 1); in depth,
+        down to NEAR_DEPTH times the widest window, ``1 + (growth - 1) 2**(-(level+1)/2)``
+        (fem.mesh.near_growth: the Q1 error of the graded near field then falls with h).
     margin: fine-mesh margin on each side of the window, fraction of its width.
     size_factor: default W, H as multiples of the window half-width.
+    boundary: 'half-plane' (the outer boundary of each body moves as a half-plane loaded
+        by the interface forces, fem.farfield: no finite-body error) or 'clamped' (body 1's
+        top tied to the plate, body 2's bottom clamped, sides free).
     """
 
     level: int = 1
@@ -45,6 +50,7 @@ class MeshSpec:
     growth: float = 1.2
     margin: float = 0.15
     size_factor: float = SIZE_FACTOR
+    boundary: str = "half-plane"
 
 
 @dataclass(frozen=True)
@@ -56,10 +62,13 @@ class MeshFile:
     ``contact_lower``, ``top`` and ``bottom``; the interface lies on y = 0 and the
     two contact node rows must have the same x coordinates (node-to-node).
     order: polynomial order of the elements built on the quads (1 or 2).
+    boundary: 'half-plane' (every boundary node off y = 0 moves as a half-plane, see
+        MeshSpec) or 'clamped' (top tied to the plate, bottom clamped).
     """
 
     path: Path
     order: int = 1
+    boundary: str = "half-plane"
 
 
 @dataclass(frozen=True)
@@ -157,8 +166,19 @@ def validate_path(path: LoadPath, Q0: float) -> tuple[np.ndarray, np.ndarray]:
     return s2, s3
 
 
+#: Outer boundary conditions of the two bodies (MeshSpec.boundary, MeshFile.boundary).
+BOUNDARIES = ("half-plane", "clamped")
+
+
+def validate_boundary(boundary: str) -> None:
+    """Raise InputError unless boundary is one of BOUNDARIES."""
+    if boundary not in BOUNDARIES:
+        raise InputError(f"boundary={boundary!r} is not allowed: need one of {list(BOUNDARIES)}")
+
+
 def validate_mesh_spec(spec: MeshSpec) -> None:
     """Raise InputError for an impossible mesh specification."""
+    validate_boundary(spec.boundary)
     if spec.order not in (1, 2):
         raise InputError(f"order={spec.order!r} is not allowed: need 1 or 2")
     if spec.level < -3 or spec.level > 6:

@@ -240,7 +240,9 @@ class ExternalResult:
 def _step(i: int, load: tuple, a: dict, mu: float, P0: float, Q0: float) -> fem.FemStep:
     stage, P, Q, M, theta = load
     candidate = ~np.isinf(a["gap"])
-    zones, sticks = contact_and_stick(a["x"], a["p"], a["q"], a["status"], candidate, mu)
+    # the gap side locates an edge as the FE model does (NaN gaps: from the pressure side)
+    zones, sticks = contact_and_stick(a["x"], a["p"], a["q"], a["status"], candidate, mu,
+                                      a["gap"])
     return fem.FemStep(index=i, stage=stage, t=_t(stage, P, Q, P0, Q0), P=P, Q=Q, M=M,
                        interface=interface(a), contact_zones=zones, stick_zones=sticks,
                        plate=(math.nan, math.nan, theta), reactions=(P, Q, M),

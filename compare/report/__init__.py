@@ -9,31 +9,37 @@ off-screen picture of the whole deformed bodies coloured by von Mises stress, an
 VTK series (``DIR/vtk/<case>/history.pvd``).  A case run without CHOLMOD is announced at the
 top.  Optional convergence studies (log-log plots with observed orders) and the paper's Fig. 5
 study page (``DIR/study_fig5.html``).  Everything is written into a temporary directory next
-to ``DIR`` and renamed into place at the end, so a failed run leaves no partial report.
+to ``DIR`` and renamed into place at the end, so a failed run leaves no partial report.  The
+cases, the convergence studies and the Fig. 5 study run in REPORT_WORKERS forked processes, the
+pyvista pictures in one child process at the end.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import multiprocessing as mp
 import os
 import shutil
 import tempfile
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from compare.cases import Case, load_case
+from compare.cases import Case, case_from_dict, load_case
 from compare.convergence import ConvergenceStudy, convergence
 from compare.report import figures, region, zones
 from compare.report.fig5 import fig5_rows
 from compare.report.html import case_html, case_md, page, study_html, verdict_text
-from compare.report.render3d import render_bodies
+from compare.report.render3d import render_many
 from compare.report.stress import stress_figures
 from compare.run import CaseResult, run_case
 
-#: The default suite of ``make run`` (each at its library FE level; about 1-2 minutes on 2 cores).
+#: The default suite of ``make run`` (each at its library FE level): ~48 s on 2 cores, 67 s of
+#: CPU (sequential profile before the figure caches: FE 21 s, stress metrics 20 s, figures 30 s,
+#: VTK and pictures 13 s, Fig. 5 study 6 s).
 DEFAULT_SUITE = ("hertz", "cattaneo", "double_wedge_a", "two_cylinders_unequal",
                  "punch_and_cylinder", "applied_moment")
 #: Default convergence study of the report: Hertz under uniform h-refinement.
@@ -78,7 +84,9 @@ def report_steps(res: CaseResult) -> tuple:
     return tuple(s for s in res.fem.steps if s.index in keep)
 
 
-def _vtk_and_render(sec: CaseSection, root: Path) -> None:
+def _write_vtk(sec: CaseSection, root: Path) -> tuple | None:
+    """The case's VTK series; returns the render job (vtu, png, region) of its pyvista
+    picture, or None with the reason noted."""
     import fem
 
     res = sec.result
@@ -88,14 +96,24 @@ def _vtk_and_render(sec: CaseSection, root: Path) -> None:
     except Exception as exc:  # noqa: BLE001 - any writer failure is reported, not fatal
         sec.vtk_note = f"VTK series not written: {type(exc).__name__}: {exc}"
         sec.render_note = "no pyvista picture: the VTK series is missing"
-        return
+        return None
     sec.vtk_link = Path(pvd).relative_to(root).as_posix()
     vtu = out / f"bodies_{region.region_step(res).index:04d}.vtu"
-    png = root / "figures" / f"{res.case.name}_bodies.png"
-    ok, why = render_bodies(vtu, png, region.region_box(res)) if vtu.is_file() else (
-        False, f"{vtu.name} not found in the VTK series")
-    sec.render, sec.render_note = (png.relative_to(root).as_posix(), "") if ok else ("", why)
-    sec.render_png = png.read_bytes() if ok else b""
+    if not vtu.is_file():
+        sec.render_note = f"no pyvista picture: {vtu.name} not found in the VTK series"
+        return None
+    return vtu, root / "figures" / f"{res.case.name}_bodies.png", region.region_box(res)
+
+
+def _render(sections: list[CaseSection], jobs: list, root: Path) -> None:
+    """All pyvista pictures in one child process (render3d.render_many)."""
+    todo = [(sec, job) for sec, job in zip(sections, jobs, strict=True) if job is not None]
+    t0 = time.perf_counter()
+    done = render_many([job for _, job in todo])
+    for (sec, (_, png, _)), (ok, why) in zip(todo, done, strict=True):
+        sec.render, sec.render_note = (png.relative_to(root).as_posix(), "") if ok else ("", why)
+        sec.render_png = png.read_bytes() if ok else b""
+        sec.seconds += (time.perf_counter() - t0) / len(todo)
 
 
 def _atomic_dir(tmp: Path, out: Path) -> None:
@@ -149,34 +167,106 @@ def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: st
     return summary
 
 
+#: Worker processes of a report (each case, the convergence studies and the Fig. 5 study are
+#: independent units of work; 2 cores: the report takes ~0.7 of its sequential time).
+REPORT_WORKERS = 2
+
+
+def _case_unit(case: Case, root: Path) -> tuple[CaseSection, tuple | None]:
+    """One case: run, figures, VTK series; the section without what cannot cross a process
+    boundary (the case and the analytic solution hold profile closures, the FE fields a sparse
+    factor): the caller puts the case back; figures and VTK files are already made."""
+    sec = CaseSection(run_case(case))
+    t_case = time.perf_counter()
+    _write_figs(sec, root)
+    job = _write_vtk(sec, root)
+    sec.seconds = time.perf_counter() - t_case
+    res = sec.result
+    sec.result = replace(res, case=None, analytic=None, fem=replace(res.fem, fields=None))
+    return sec, job
+
+
+def _convergence_unit(case: Case, levels: tuple, root: Path) -> tuple[ConvergenceStudy, bytes]:
+    st = convergence(case, levels=levels)
+    fig = figures.convergence_figure(st)
+    (root / "figures" / f"{case.name}_convergence.png").write_bytes(fig)
+    return st, fig
+
+
+def _fig5_unit(root: Path) -> tuple[list, bytes]:
+    rows = fig5_rows()
+    fig5_png = figures.fig5_figure(rows)
+    (root / "figures" / "fig5.png").write_bytes(fig5_png)
+    html = page("Study: paper Fig. 5", study_html(rows, fig5_png), links=False)
+    (root / "study_fig5.html").write_text(html, encoding="utf-8")
+    return rows, fig5_png
+
+
+def _case_doc_unit(doc: dict, root: Path) -> tuple[CaseSection, tuple | None]:
+    """:func:`_case_unit` in a worker process: the case arrives as its case-file table."""
+    return _case_unit(case_from_dict(doc, name=doc["name"]), root)
+
+
+def _convergence_doc_unit(doc: dict, levels: tuple, root: Path):
+    return _convergence_unit(case_from_dict(doc, name=doc["name"]), levels, root)
+
+
+def portable(cases: list[Case]) -> list[dict] | None:
+    """The case-file tables that rebuild ``cases`` in a worker process, or None if one does
+    not round-trip (a mesh file, a profile without a spec): the report then runs in-process."""
+    try:
+        docs = [c.to_dict() for c in cases]
+        same = all(case_from_dict(d, name=d["name"]).to_dict() == d for d in docs)
+    except Exception:  # noqa: BLE001 - any failure means: do not ship this case
+        return None
+    return docs if same and not any(c.fem.mesh_file for c in cases) else None
+
+
+def _run_units(units: list[tuple], workers: int):
+    """Results of the units ``(function, *args)`` in order, in ``workers`` processes of a
+    forkserver (safe when the caller has threads; 1: in this process)."""
+    if workers <= 1 or len(units) <= 1:
+        yield from (fn(*args) for fn, *args in units)
+        return
+    ctx = mp.get_context("forkserver")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        futures = [pool.submit(fn, *args) for fn, *args in units]
+        for f in futures:
+            yield f.result()
+
+
 def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, progress: Progress,
-           t0: float) -> dict:
+           t0: float, workers: int = REPORT_WORKERS) -> dict:
     (root / "figures").mkdir()
-    sections = []
+    conv = list(conv_cases.values())
+    docs = portable(cases + [c for c, _ in conv]) if workers > 1 else None
+    run_one, run_conv = _case_doc_unit, _convergence_doc_unit
+    if docs is None:
+        workers, docs, run_one, run_conv = 1, cases + [c for c, _ in conv], _case_unit, \
+            _convergence_unit
+    units = [(run_one, d, root) for d in docs[:len(cases)]]
+    units += [(run_conv, d, levels, root) for d, (_, levels) in zip(docs[len(cases):], conv,
+                                                                     strict=True)]
+    units += [(_fig5_unit, root)] if want_fig5 else []
+    results = _run_units(units, workers)
+    sections, jobs = [], []
     for case in cases:
-        sec = CaseSection(run_case(case))
-        t_case = time.perf_counter()
-        _write_figs(sec, root)
-        _vtk_and_render(sec, root)
-        sec.seconds = time.perf_counter() - t_case
+        sec, job = next(results)
+        sec.result = replace(sec.result, case=case)
         sections.append(sec)
+        jobs.append(job)
         progress(f"case {case.name}: {'agrees' if sec.result.passed else 'FAILS'}")
     studies, conv_figs = [], {}
-    for name, (case, levels) in conv_cases.items():
-        st = convergence(case, levels=levels)
+    for name in conv_cases:
+        st, conv_figs[name] = next(results)
         studies.append(st)
-        conv_figs[name] = figures.convergence_figure(st)
-        (root / "figures" / f"{name}_convergence.png").write_bytes(conv_figs[name])
         progress(f"convergence {name}: pressure order {st.orders['pressure_l2_error']:.2f}, "
-                 f"converges: {st.converges}")
-    rows, fig5_png = [], None
+                 f"{st.verdict()}")
+    rows = []
     if want_fig5:
-        rows = fig5_rows()
-        fig5_png = figures.fig5_figure(rows)
-        (root / "figures" / "fig5.png").write_bytes(fig5_png)
-        html = page("Study: paper Fig. 5", study_html(rows, fig5_png), links=False)
-        (root / "study_fig5.html").write_text(html, encoding="utf-8")
+        rows, _ = next(results)
         progress("study Fig. 5 written")
+    _render(sections, jobs, root)
     summary = _summary(sections, studies, rows, time.perf_counter() - t0)
     _write_documents(root, sections, studies, conv_figs, want_fig5, summary)
     return summary

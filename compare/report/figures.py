@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import analytic  # noqa: E402
+from compare._memo import memo  # noqa: E402
 from compare.run import CaseResult  # noqa: E402
 
 DPI = 90
@@ -34,7 +35,7 @@ def stick_cycle_figure(res: CaseResult) -> bytes | None:
     if res.case.Q0 == 0:
         return None
     Q0 = res.case.Q0
-    cyc = analytic.cycle(res.analytic.normal, res.case.mu, Q0, n=3 * CYCLE_POINTS + 1)
+    cyc = analytic_cycle(res)
     keep = cyc.stage <= 3  # the FE history covers stages 2 and 3
     t_an = np.array([_t(st, q, Q0) for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
     edges = cyc.stick_edges[keep]  # nan where a zone is in full slip
@@ -55,25 +56,68 @@ def stick_cycle_figure(res: CaseResult) -> bytes | None:
     return png(fig)
 
 
+def analytic_cycle(res: CaseResult):
+    """The analytic load cycle of the figures (solved once per case: two figures draw it)."""
+    normal, mu, Q0 = res.analytic.normal, res.case.mu, res.case.Q0
+    return memo(normal, ("cycle", mu, Q0, CYCLE_POINTS),
+                lambda: analytic.cycle(normal, mu, Q0, n=3 * CYCLE_POINTS + 1))
+
+
 def _t(stage: int, Q: float, Q0: float) -> float:
     return Q / Q0 if stage == 2 else 1.0 + (Q0 - Q) / (2 * Q0)
 
 
 def convergence_figure(study) -> bytes:
-    """Log-log errors against the study parameter with observed orders."""
+    """Log-log errors against the study parameter with observed orders; segments where an error
+    stalls (local order < STALL_ORDER) in red, the expected pressure order as a reference slope,
+    the Richardson-extrapolated edge error as a dotted line (or why it was refused)."""
+    from compare.convergence import STALL_ORDER
+
     fig, ax = plt.subplots(figsize=(6.5, 4))
     h = np.asarray(study.parameter)
     for name, errs in study.errors.items():
         e = np.asarray(errs, float)
-        if np.all(~np.isfinite(e)):
+        if np.all(~np.isfinite(e)) or np.all(h <= 0):
             continue
-        ax.loglog(h, e, "o-", label=f"{name} (order {study.orders[name]:.2f})")
+        line, = ax.loglog(h, e, "o-", label=f"{name} (order {study.orders[name]:.2f})")
+        for i, p in enumerate(study.local_orders[name]):
+            if np.isfinite(p) and p < STALL_ORDER:
+                ax.loglog(h[i:i + 2], e[i:i + 2], "-", color="red", lw=3, alpha=0.5)
+                ax.annotate(f"stalls ({p:.2f})", (h[i + 1], e[i + 1]), fontsize=7, color="red",
+                            xytext=(4, -10), textcoords="offset points")
+    _expected_slope(ax, study, h)
+    _richardson_line(ax, study)
     xlabel = {"h": "finest element length h", "penalty": "1 / penalty factor",
               "domain": "1 / size factor"}[study.kind]
-    ax.set(xlabel=xlabel, ylabel="error", title=f"{study.case_name}: {study.kind}-convergence")
+    ax.set(xlabel=xlabel, ylabel="error",
+           title=f"{study.case_name}: {study.kind}-convergence\n{study.verdict()}"[:160])
+    ax.title.set_fontsize(8)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     return png(fig)
+
+
+def _expected_slope(ax, study, h: np.ndarray) -> None:
+    """Dashed reference line of the expected pressure order through the coarsest point."""
+    if "pressure_l2_error" not in study.expected:
+        return
+    e0 = study.errors["pressure_l2_error"][0]
+    if not (np.isfinite(e0) and e0 > 0):
+        return
+    order = study.expected["pressure_l2_error"][0]
+    ax.loglog(h, e0 * (h / h[0]) ** order, "--", color="0.5", lw=1,
+              label=f"expected pressure order {order:g}")
+
+
+def _richardson_line(ax, study) -> None:
+    if study.kind != "h":
+        return
+    if np.isfinite(study.richardson_error) and study.richardson_error > 0:
+        ax.axhline(study.richardson_error, ls=":", color="k", lw=1,
+                   label=f"Richardson edge error {study.richardson_error:.2e}")
+    elif study.richardson_reason:
+        ax.text(0.02, 0.02, f"Richardson refused: {study.richardson_reason}"[:90],
+                transform=ax.transAxes, fontsize=6, color="red")
 
 
 def fig5_figure(rows: list[dict]) -> bytes:

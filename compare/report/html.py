@@ -166,14 +166,26 @@ def case_html(sec) -> str:
 
 def convergence_html(st, png: bytes) -> str:
     rows = "".join(f"<tr><td class='l'>{m}</td>" + "".join(f"<td>{fmt(v)}</td>" for v in vals)
-                   + f"<td>{fmt(st.orders[m])}</td></tr>" for m, vals in st.errors.items())
+                   + f"<td>{fmt(st.orders[m])}</td><td>{fmt(st.local_orders[m][-1])}</td>"
+                   f"<td>{fmt(st.expected.get(m, (None,))[0])}</td></tr>"
+                   for m, vals in st.errors.items())
     head = "".join(f"<th>{fmt(v)}</th>" for v in st.values)
+    why = "".join(f"<li>{m}: ~{o:g} ({html.escape(r)})</li>" for m, (o, r) in st.expected.items())
     return (f'<h2 id="conv-{st.case_name}">convergence: {st.case_name} ({st.kind})</h2>'
-            f"<p>converges: <b>{st.converges}</b>; Richardson-extrapolated edges "
-            f"{', '.join(fmt(v) for v in st.richardson_edges)} vs analytic "
-            f"{', '.join(fmt(v) for v in st.analytic_edges)} (error / width "
-            f"{fmt(st.richardson_error)})</p><table><tr><th class='l'>metric \\ level</th>"
-            f"{head}<th>order</th></tr>{rows}</table>{img(png, 'convergence')}")
+            f"<p><b>{html.escape(st.verdict())}</b>; {_richardson_text(st)}</p>"
+            f"<table><tr><th class='l'>metric \\ level</th>"
+            f"{head}<th>order</th><th>last order</th><th>expected</th></tr>{rows}</table>"
+            f"<ul>{why}</ul>{img(png, 'convergence')}")
+
+
+def _richardson_text(st) -> str:
+    if st.kind != "h":
+        return f"FE edges move by {fmt(st.edge_shift)} of the zone width over the runs"
+    if st.richardson_reason:
+        return f"Richardson extrapolation refused: {html.escape(st.richardson_reason)}"
+    return (f"Richardson-extrapolated edges {', '.join(fmt(v) for v in st.richardson_edges)} vs "
+            f"analytic {', '.join(fmt(v) for v in st.analytic_edges)} (error / width "
+            f"{fmt(st.richardson_error)})")
 
 
 def _fe_vs_actual(r: dict) -> float | None:
@@ -234,11 +246,13 @@ def case_md(sec) -> str:
 
 def convergence_md(st) -> str:
     lines = [f"\n## convergence: {st.case_name} ({st.kind})\n",
-             f"converges: **{st.converges}**; Richardson edge error / width "
-             f"{fmt(st.richardson_error)}\n",
-             "| metric | " + " | ".join(fmt(v) for v in st.values) + " | order |",
-             "|---|" + "---|" * (len(st.values) + 1)]
-    lines += [f"| {m} | " + " | ".join(fmt(v) for v in vals) + f" | {fmt(st.orders[m])} |"
+             f"**{st.verdict()}**; {_richardson_text(st)}\n",
+             "| metric | " + " | ".join(fmt(v) for v in st.values)
+             + " | order | last order | expected |",
+             "|---|" + "---|" * (len(st.values) + 3)]
+    lines += [f"| {m} | " + " | ".join(fmt(v) for v in vals) + f" | {fmt(st.orders[m])} | "
+              f"{fmt(st.local_orders[m][-1])} | {fmt(st.expected.get(m, (None,))[0])} |"
               for m, vals in st.errors.items()]
+    lines += [f"\n- expected {m}: ~{o:g} ({r})" for m, (o, r) in st.expected.items()]
     lines.append(f"\n![convergence](figures/{st.case_name}_convergence.png)")
     return "\n".join(lines) + "\n"

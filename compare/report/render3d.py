@@ -8,6 +8,7 @@ and the report must still be written (with the reason) when that happens.
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -16,29 +17,40 @@ from pathlib import Path
 RENDER_TIMEOUT = 120
 
 SCRIPT = r"""
+import json
 import sys
 import numpy as np
 import pyvista as pv
 pv.OFF_SCREEN = True
-src, out = sys.argv[1], sys.argv[2]
-xlo, xhi, ylo, yhi = (float(v) for v in sys.argv[3:7])
-mesh = pv.read(src)
-b = mesh.bounds
-disp = np.asarray(mesh.point_data["displacement"])
-scale = 0.03 * (b[3] - b[2]) / max(float(np.abs(disp[:, 1]).max()), 1e-300)
-warped = mesh.warp_by_vector("displacement", factor=scale)
-vm = np.asarray(mesh.point_data["von_mises"])
-pl = pv.Plotter(off_screen=True, window_size=(640, 400))
-pl.add_mesh(warped, scalars="von_mises", cmap="viridis", show_edges=False,
-            clim=(0.0, float(np.percentile(vm, 99.5)) or 1.0),
-            scalar_bar_args={"title": "von Mises", "label_font_size": 10, "title_font_size": 11})
-frame = np.array([[xlo, ylo, 0], [xhi, ylo, 0], [xhi, yhi, 0], [xlo, yhi, 0], [xlo, ylo, 0]])
-pl.add_mesh(pv.lines_from_points(frame + [0, 0, 1e-3 * (b[1] - b[0])]), color="red",
-            line_width=2)
-pl.view_xy()
-pl.camera.zoom(1.3)
-pl.add_text(f"whole bodies, displacement x {scale:.3g}; red: contact region", font_size=8)
-pl.screenshot(out)
+
+
+def render(src, out, xlo, xhi, ylo, yhi):
+    mesh = pv.read(src)
+    b = mesh.bounds
+    disp = np.asarray(mesh.point_data["displacement"])
+    scale = 0.03 * (b[3] - b[2]) / max(float(np.abs(disp[:, 1]).max()), 1e-300)
+    warped = mesh.warp_by_vector("displacement", factor=scale)
+    vm = np.asarray(mesh.point_data["von_mises"])
+    pl = pv.Plotter(off_screen=True, window_size=(640, 400))
+    pl.add_mesh(warped, scalars="von_mises", cmap="viridis", show_edges=False,
+                clim=(0.0, float(np.percentile(vm, 99.5)) or 1.0),
+                scalar_bar_args={"title": "von Mises", "label_font_size": 10,
+                                 "title_font_size": 11})
+    frame = np.array([[xlo, ylo, 0], [xhi, ylo, 0], [xhi, yhi, 0], [xlo, yhi, 0], [xlo, ylo, 0]])
+    pl.add_mesh(pv.lines_from_points(frame + [0, 0, 1e-3 * (b[1] - b[0])]), color="red",
+                line_width=2)
+    pl.view_xy()
+    pl.camera.zoom(1.3)
+    pl.add_text(f"whole bodies, displacement x {scale:.3g}; red: contact region", font_size=8)
+    pl.screenshot(out)
+    pl.close()
+
+
+for k, job in enumerate(json.loads(sys.stdin.read())):
+    try:
+        render(*job)
+    except Exception as exc:
+        print(f"job {k}: {type(exc).__name__}: {exc}", file=sys.stderr)
 """
 
 
@@ -46,13 +58,23 @@ def render_bodies(vtu: Path, out_png: Path, region: tuple[float, float, float, f
                   ) -> tuple[bool, str]:
     """Render ``vtu`` (bodies of one step) into ``out_png`` with a frame around ``region``
     (xmin, xmax, ymin, ymax); returns (ok, reason-if-not)."""
-    cmd = [sys.executable, "-c", SCRIPT, str(vtu), str(out_png), *map(repr, region)]
+    return render_many([(vtu, out_png, region)])[0]
+
+
+def render_many(jobs: list[tuple[Path, Path, tuple[float, float, float, float]]]
+                ) -> list[tuple[bool, str]]:
+    """:func:`render_bodies` for several pictures in one child process (pyvista is imported
+    once: ~1 s per picture saved); returns (ok, reason-if-not) per job."""
+    if not jobs:
+        return []
+    spec = json.dumps([[str(v), str(o), *map(float, r)] for v, o, r in jobs])
+    timeout = RENDER_TIMEOUT * len(jobs)
     try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=RENDER_TIMEOUT)
+        proc = subprocess.run([sys.executable, "-c", SCRIPT], input=spec, capture_output=True,
+                              text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
-        return False, f"pyvista rendering timed out after {RENDER_TIMEOUT} s"
-    if proc.returncode != 0 or not out_png.is_file():
-        tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
-        return False, ("pyvista off-screen rendering failed (needs EGL, OSMesa or an X "
-                       f"server): exit {proc.returncode}: {' | '.join(tail)}")
-    return True, ""
+        return [(False, f"pyvista rendering timed out after {timeout} s")] * len(jobs)
+    tail = " | ".join((proc.stderr or proc.stdout).strip().splitlines()[-3:])
+    why = ("pyvista off-screen rendering failed (needs EGL, OSMesa or an X server): "
+           f"exit {proc.returncode}: {tail}")
+    return [(True, "") if Path(out).is_file() else (False, why) for _, out, _ in jobs]

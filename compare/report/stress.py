@@ -19,7 +19,7 @@ from matplotlib.tri import Triangulation  # noqa: E402
 
 import analytic  # noqa: E402
 from compare import stress as cs  # noqa: E402
-from compare.report.figures import CYCLE_POINTS, _t, png  # noqa: E402
+from compare.report.figures import _t, analytic_cycle, png  # noqa: E402
 from compare.run import CaseResult  # noqa: E402
 
 CONTOUR_LEVELS = 21
@@ -86,7 +86,7 @@ def ruiz_figure(res: CaseResult) -> bytes | None:
     if res.case.Q0 == 0:
         return None
     normal, Q0 = res.analytic.normal, res.case.Q0
-    cyc = analytic.cycle(normal, res.case.mu, Q0, n=3 * CYCLE_POINTS + 1)
+    cyc = analytic_cycle(res)
     keep = cyc.stage <= 3
     t = np.array([_t(st, q, Q0) for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
     rz = analytic.ruiz(analytic.solve_stick(normal, res.case.mu, -Q0, Q0, allow_full_slip=True))

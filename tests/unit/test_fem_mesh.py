@@ -8,7 +8,7 @@ from fem.bulk import discretise, free_dofs, reduced_stiffness
 from fem.condense import compliance, condense, pair_dofs
 from fem.linsolve import available_backends, factorize
 from fem.mesh import build_mesh, graded_sizes, read_mesh, write_msh
-from fem.results import edge, runs
+from fem.results import runs, sqrt_edge
 
 
 def test_graded_sizes_sum_and_growth():
@@ -66,7 +66,7 @@ def test_runs_and_sqrt_edge_extrapolation():
     a = 0.73
     f = np.sqrt(np.clip(a - x, 0, None))
     inner = int(np.flatnonzero(f > 0)[-1])
-    assert abs(edge(x, f, inner, +1) - a) < 1e-12
+    assert abs(sqrt_edge(x, f, (0, inner), +1) - a) < 1e-12
 
 
 def test_backends_agree_and_schur_equals_blocked_solves():

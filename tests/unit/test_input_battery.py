@@ -28,6 +28,9 @@ NAN, INF = float("nan"), float("inf")
 SCALAR_BAD = [NAN, INF, -INF, "1.0", [1.0, 2.0], 1j, True, object(), np.array([[1.0, 2.0]])]
 #: Bad values of a 1-D numeric sequence parameter.
 VECTOR_BAD = ["abc", [[1.0, 2.0], [3.0, 4.0]], ["a", "b"], [1.0, NAN], [INF, 1.0], {}]
+#: Bad FE windows: one (xmin, xmax) or one pair per zone is allowed (so no generic 2-D vector).
+WINDOW_BAD = ["abc", ["a", "b"], [1.0, NAN], [INF, 1.0], {}, [1.0, -1.0], [0.0], [0.0, 1.0, 2.0],
+              [[0.0, 1.0], [2.0, 1.5]], [[0.0, 1.0, 2.0]], [[[0.0, 1.0]]]]
 #: Bad values of a parameter that takes an object (profile, solution, settings).
 OBJECT_BAD = [None, 1.0, "cylinder", [1.0]]
 
@@ -129,7 +132,7 @@ TARGETS: list[tuple[str, Callable, type, dict]] = [
       "E": ("scalar", [0.0, -1.0]), "nu": ("scalar", [0.5, -1.0]), "M": ("optional", []),
       "h0": ("object", []), "mesh": ("none", [1.0, [1.0]]),
       "contact": ("none", [1.0, "penalty"]), "increments": ("none", [3, "x"]),
-      "kinks": ("vector", []), "window": ("optvector", [[1.0, -1.0], [0.0], [0.0, 1.0, 2.0]]),
+      "kinks": ("vector", []), "window": ("none", WINDOW_BAD),
       "vtk_dir": ("none", [1.0]), "backend": ("object", ["umfpack"])}),
     ("Case", _case, CaseError,
      {"P": ("scalar", [0.0]), "E": ("scalar", [0.0]), "nu": ("scalar", [0.5]),

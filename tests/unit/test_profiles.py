@@ -130,6 +130,18 @@ def test_union_of_punch_and_cylinder_keeps_the_punch_corners() -> None:
     assert u.h0(np.array([0.8]))[0] == pytest.approx(0.01, rel=1e-12)
 
 
+def test_union_corner_takes_the_lower_side_of_the_step() -> None:
+    """h0 = min of the members also at a sharp corner node of a union (issue 14 item 3: the
+    neighbouring member's gap was returned there, so an FE corner node was left open)."""
+    punch, cyl = profiles.flat_punch(-2.5, -1.5), profiles.cylinder(10.0, center=1.0, lift=2e-4)
+    u = profiles.union(punch, cyl)
+    corners = np.array([-2.5, -1.5])
+    np.testing.assert_array_equal(u.h0(corners), [0.0, 0.0])
+    assert u.h0(-2.5) == 0.0  # scalar input too
+    outside = np.array([-2.5 - 1e-9, -1.5 + 1e-9])
+    np.testing.assert_allclose(u.h0(outside), cyl.h0(outside), rtol=1e-12)
+
+
 def test_tabulated_reproduces_a_smooth_profile_between_samples() -> None:
     x = np.linspace(-2, 2, 81)
     h = x**2 / 2 + 0.1 * x**3 + 0.5

@@ -13,8 +13,6 @@ from compare.run import CaseResult, checks_for, evaluate
 from compare.testing import DisagreementError, assert_agrees
 
 AGREEING = ("hertz", "cattaneo", "double_wedge_a", "double_wedge_b", "double_wedge_c")
-#: Coarse level of the end-to-end runs: one below the library level (not below 0).
-HEAVY = ("three_cylinders", "punch_and_cylinder")
 
 
 @pytest.mark.parametrize("name", AGREEING)
@@ -50,8 +48,9 @@ def test_perturbed_edges_fail_readably(contact_case):
 
 
 def coarse(name: str):
+    """The case one level below its library level (not below 0: 48 elements per zone)."""
     case = load_case(name)
-    return case.with_fem(level=max(case.fem.level - 1, 0)) if name in HEAVY else case
+    return case.with_fem(level=max(case.fem.level - 1, 0))
 
 
 @pytest.mark.parametrize("name", sorted(set(list_cases())))
@@ -70,3 +69,9 @@ def test_library_case_runs_end_to_end(name):
 @pytest.mark.parametrize("name", sorted(set(list_cases()) - set(AGREEING)))
 def test_library_case_agrees_at_library_level(contact_case, name):
     assert_agrees(contact_case(name))
+
+
+def test_punch_beside_cylinder_under_moment_agrees_at_its_library_level():
+    """Level 1 used to fail in stage 2 (law residual 1.1e-10 from rounding of the dense
+    active-set solve, just above the tolerance); one step of iterative refinement fixes it."""
+    assert_agrees(run_case("punch_cylinder_moment"))

@@ -14,7 +14,7 @@ import pytest
 
 from compare.external import kratos
 from compare.stress import STRESS_METRICS
-from compare.testing import assert_agrees
+from compare.testing import DisagreementError, assert_agrees
 from compare.verify import verify
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "kratos_cattaneo"
@@ -26,7 +26,16 @@ def test_stored_kratos_result_verifies():
     assert len(res.fem.stage(1)) == 10 and res.fem.stage(3)
     # M from reactions, stage-1 steps at the reduced loads: only the body stresses are missing
     assert set(res.unavailable) == set(STRESS_METRICS)
-    assert_agrees(res)
+    # element a/23 (linear mortar ALM): edges, pressure, loads and JC agree; the stick edge
+    # (1.04 % of the width) and the shear (11.9 %) miss the tolerances our FE meets at level 0
+    # (issue 14: 1 %, 5%), and the verdict says so
+    assert {c.name for c in res.checks if not c.passed} == KRATOS_MISSES
+    with pytest.raises(DisagreementError, match="stick .* shear"):
+        assert_agrees(res)
+
+
+#: Checks the stored Kratos result (element a/23) fails at the default tolerances.
+KRATOS_MISSES = {"stick", "shear"}
 
 
 @pytest.mark.slow

@@ -73,7 +73,7 @@ def test_overlap_sweep_matches_fig5_data_and_reports(tmp_path):
 
 def test_failing_case_is_recorded_and_sweep_goes_on(tmp_path, capsys):
     f = tmp_path / "s.toml"
-    f.write_text('[parts.fe]\ntask = "fem"\nset = { "fem.level" = -3 }\n'
+    f.write_text('[parts.fe]\ntask = "fem"\nset = { "fem.level" = -3, "fem.window_margin" = 1.0 }\n'
                  'axes = { "load.P" = [0.002] }\n'
                  '[parts.an]\ntask = "analytic"\naxes = { "load.P" = [0.02, 0.04] }\n' + BASE)
     out = tmp_path / "out"

@@ -1,11 +1,12 @@
 """FE stresses of body 2 against ``analytic.stress`` under refinement (compare/stress.py).
 
-The FE bodies are finite (half-width ``size_factor`` x the window, clamped base): they add a
-nearly uniform sxx to the half-plane field, which sets ``stress_l2_error`` at the library sizes
-(it falls like 1/W: order ~0.9).  The rest, ``stress_shape_error`` (the mean difference
-removed), is the discretisation error of the nodal L2-projected Q4 stresses: order ~1 in h
-(Cattaneo, levels -1..2: 0.030, 0.011, 0.0040, 0.0027; the last step meets the non-uniform
-part of the finite-body error).
+The FE bodies are finite (half-width ``size_factor`` x the window) with a half-plane far-field
+boundary: with a clamped base they added a nearly uniform sxx that set ``stress_l2_error`` (it
+fell like 1/W: order ~0.86, Hertz level 0, 0.047 / 0.026 / 0.014 for W = 25 / 50 / 100); with
+the far field it no longer depends on the size (Hertz level 0: 0.00275 / 0.00281 / 0.00290 /
+0.00294 / 0.00297 for W = 4 / 8 / 25 / 50 / 100, stress_shape_error 0.00265 throughout).
+``stress_shape_error`` (the mean difference removed) is the discretisation error of the nodal
+L2-projected Q4 stresses: order ~1 in h.
 """
 
 from __future__ import annotations
@@ -21,8 +22,9 @@ from compare.run import run_case
 MIN_H_ORDER = 0.8
 """Lower bound of the observed h-order of stress_shape_error over levels -1, 0, 1 (measured
 Cattaneo 1.49)."""
-MIN_DOMAIN_ORDER = 0.6
-"""Lower bound of the order of stress_l2_error in 1/size_factor (measured 0.86, Hertz level 0)."""
+DOMAIN_SPREAD = 0.15
+"""Largest relative spread of stress_l2_error over body sizes 4..100 (measured 0.08, Hertz
+level 0, half-plane far field; clamped bodies: a factor 3.4 over sizes 25..100)."""
 
 
 def _study(name: str, variants: list[dict]) -> tuple[list, list]:
@@ -46,9 +48,8 @@ def test_stress_shape_error_converges_under_h():
 
 
 @pytest.mark.slow
-def test_stress_error_falls_with_the_domain_size():
-    sizes = (25.0, 50.0, 100.0)
-    runs, m = _study("hertz", [{"level": 0, "size_factor": s} for s in sizes])
+def test_stress_error_does_not_depend_on_the_domain_size():
+    sizes = (4.0, 25.0, 100.0)
+    _, m = _study("hertz", [{"level": 0, "size_factor": s} for s in sizes])
     err = [x["stress_l2_error"] for x in m]
-    order = mt.observed_order([1.0 / s for s in sizes], err)
-    assert order > MIN_DOMAIN_ORDER, (order, err)
+    assert max(err) - min(err) < DOMAIN_SPREAD * min(err), err

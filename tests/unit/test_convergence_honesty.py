@@ -1,0 +1,111 @@
+"""Convergence verdicts on synthetic error sequences: a stall is reported as a stall, Richardson
+refuses negative / implausible orders and non-monotone sequences instead of returning the finest
+value, and the text output says what theory expects."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from compare import metrics as mt
+from compare.convergence import STALL_ORDER, TRACKED, assemble, convergence_text
+
+H = [0.04, 0.02, 0.01, 0.005]
+ZONES = [(-1.0, 1.0)]
+
+
+def errors(n: int = 4, **given) -> dict:
+    """Tracked errors on the first ``n`` levels: first order, overridden by ``given``."""
+    out = {m: [0.1 * h for h in H[:n]] for m in TRACKED}
+    out.update(given)
+    return out
+
+
+def edges(b: list[float]) -> list[list[float]]:
+    return [[-v, v] for v in b]
+
+
+def study(errs: dict, b: list[float], kind: str = "h", values=(0, 1, 2, 3), par=H):
+    return assemble("synthetic", kind, list(values), list(par), errs, edges(b), ZONES)
+
+
+def test_first_order_sequence_converges_with_its_order_and_ratios():
+    st = study(errors(), [1.0 + 0.3 * h for h in H])
+    assert st.converges and st.verdict() == "converges: True" and not st.stall
+    assert st.orders["pressure_l2_error"] == pytest.approx(1.0)
+    assert st.local_orders["edge_error_max"] == pytest.approx([1.0, 1.0, 1.0])
+    assert st.ratios["shear_l2_error"] == pytest.approx([2.0, 2.0, 2.0])
+    assert st.richardson_error == pytest.approx(0.0, abs=1e-12)  # exact for a power law
+
+
+def test_a_stalling_edge_error_is_reported_as_a_stall():
+    """Issue 14: edge errors 0.24 %, 0.088 %, 0.11 % printed 'converges: True'."""
+    st = study(errors(3, edge_error_max=[2.4e-3, 8.8e-4, 1.1e-3]), [1.0, 1.001, 1.002],
+               values=(0, 1, 2), par=H[:3])
+    assert not st.converges
+    assert st.verdict().startswith("converges: False -- stalls at level 2: edge_error_max")
+    assert st.local_orders["edge_error_max"][-1] < STALL_ORDER
+
+
+def test_a_slow_last_step_stalls_but_a_tiny_error_does_not():
+    slow = [1e-2, 5e-3, 2.5e-3, 2.2e-3]  # last local order 0.18
+    assert "pressure_l2_error" in study(errors(pressure_l2_error=slow), [1.0] * 4).stall
+    tiny = [1e-6, 5e-7, 4e-8, 4e-8]      # below STALL_FLOOR: rounding level
+    assert not study(errors(edge_error_max=tiny), [1.0] * 4).stall
+
+
+def test_richardson_refuses_negative_order_and_says_why():
+    """double_wedge_a extrapolated with order -1.33; now refused with the reason."""
+    seq = [1.0, 1.001, 1.00352]  # growing differences: negative order
+    val, order, why = mt.richardson_check(seq)
+    assert math.isnan(val) and order < 0 and "outside" in why
+    st = study(errors(), [1.0, 1.001, 1.00352, 1.00987])
+    assert math.isnan(st.richardson_error) and "outside" in st.richardson_reason
+    assert "refused" in convergence_text(st)
+
+
+def test_richardson_refuses_non_monotone_sequences_instead_of_the_finest_value():
+    val, order, why = mt.richardson_check([1.0, 1.002, 1.001])
+    assert math.isnan(val) and math.isnan(order) and "non-monotone" in why
+    assert all(math.isnan(v) for v in mt.richardson([1.0, 1.0, 1.0]))
+    assert "three" in mt.richardson_check([1.0, 1.1])[2]
+
+
+def test_richardson_refuses_implausibly_high_orders():
+    val, order, why = mt.richardson_check([1.0, 1.0 + 1e-3, 1.0 + 1e-3 + 1e-6])
+    assert math.isnan(val) and order > 3 and "outside" in why
+
+
+def test_text_states_expected_orders_and_penalty_shift():
+    st = study(errors(), [1.0 + 0.3 * h for h in H])
+    text = convergence_text(st)
+    assert "expected pressure_l2_error: ~1" in text and "sqrt" in text
+    pen = assemble("synthetic", "penalty", [100.0, 1e4, math.inf], [1e-2, 1e-4, 0.0],
+                   {m: [1e-3] * 3 for m in TRACKED}, edges([1.0001, 1.0, 1.0]), ZONES)
+    assert pen.edge_shift == pytest.approx(5e-5) and pen.converges
+    assert "move by 5.00e-05" in pen.verdict()
+    moved = assemble("synthetic", "penalty", [100.0, math.inf], [1e-2, 0.0],
+                     {m: [1e-3] * 2 for m in TRACKED}, edges([1.002, 1.0]), ZONES)
+    assert not moved.converges and "> 0.0003" in moved.verdict()
+
+
+def test_local_orders_skip_undefined_errors():
+    out = mt.local_orders([0.1, 0.05, 0.025], [1.0, np.nan, 0.25])
+    assert all(math.isnan(v) for v in out)
+
+
+def test_convergence_figure_draws_a_stalling_study():
+    from compare.report.figures import convergence_figure
+
+    st = study(errors(3, edge_error_max=[2.4e-3, 8.8e-4, 1.1e-3]), [1.0, 1.001, 1.00352],
+               values=(0, 1, 2), par=H[:3])
+    assert convergence_figure(st)[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_richardson_refuses_a_sequence_crossing_the_limit():
+    """Cattaneo levels 1-3: the finest FE edge crosses the analytic one (error -9.2e-5,
+    -3.25e-5, +8.1e-6): estimated order 0.55, an extrapolated error 12x the finest one."""
+    val, order, why = mt.richardson_check([-9.2e-5, -3.25e-5, 8.1e-6])
+    assert math.isnan(val) and 0.5 < order < 0.75 and "outside" in why

@@ -1,0 +1,153 @@
+"""Edge estimators of fem.results on synthetic nodal data with known edges.
+
+A nonsingular edge has p ~ sqrt(distance) inside and a gap ~ distance**1.5 outside; the
+estimators must be exact for such profiles on uniform and graded grids, whatever the position
+of the edge between two nodes, and must not be fooled by the two smeared outermost nodes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fem.results import (
+    OPEN,
+    SLIP,
+    STICK,
+    contact_and_stick,
+    gap_edge,
+    runs,
+    smooth_prefix,
+    sqrt_edge,
+)
+
+EXACT = 1e-9  # relative to the element size: the fits are exact up to rounding
+
+
+def uniform(n: int = 81, lo: float = -1.0, hi: float = 1.0) -> np.ndarray:
+    return np.linspace(lo, hi, n)
+
+
+def graded(n: int = 81, ratio: float = 1.03) -> np.ndarray:
+    """Nodes on [-1, 1] whose spacing grows geometrically from the left."""
+    d = ratio ** np.arange(n - 1)
+    return -1.0 + 2.0 * np.r_[0.0, np.cumsum(d)] / d.sum()
+
+
+def run_of(f: np.ndarray) -> tuple[int, int]:
+    (run,) = runs(f > 0)
+    return run
+
+
+@pytest.mark.parametrize("grid", [uniform, graded])
+@pytest.mark.parametrize("b", [0.5013, 0.5219, 0.5377, 0.5488])
+def test_sqrt_edge_exact_for_sqrt_profile(grid, b):
+    x = grid()
+    a = -0.6
+    p = 3.0 * np.sqrt(np.clip((b - x) * (x - a), 0.0, None))  # p**2 quadratic: Hertz-like
+    i0, i1 = run_of(p)
+    h = x[i1 + 1] - x[i1]
+    assert sqrt_edge(x, p, (i0, i1), +1) == pytest.approx(b, abs=EXACT * h)
+    assert sqrt_edge(x, p, (i0, i1), -1) == pytest.approx(a, abs=EXACT * h)
+
+
+def test_sqrt_edge_ignores_the_smeared_outer_nodes():
+    x = uniform()
+    b = 0.5219
+    p = np.sqrt(np.clip(b - x, 0.0, None)) * (x > -0.5)
+    i0, i1 = run_of(p)
+    smeared = p.copy()
+    smeared[i1] *= 0.7       # the node-wise contact smears the two outermost nodes
+    smeared[i1 - 1] *= 0.95
+    h = x[1] - x[0]
+    assert sqrt_edge(x, smeared, (i0, i1), +1) == pytest.approx(b, abs=EXACT * h)
+
+
+def test_sqrt_edge_stops_at_a_kink():
+    """A kink (e.g. a former stick edge) a few nodes inside must not bend the fit."""
+    x = uniform()
+    b, kink = 0.5219, 0.42
+    f2 = np.clip(b - x, 0.0, None) + 3.0 * np.clip(kink - x, 0.0, None)
+    f = np.sqrt(f2) * (x > -0.5)
+    i0, i1 = run_of(f)
+    h = x[1] - x[0]
+    assert sqrt_edge(x, f, (i0, i1), +1) == pytest.approx(b, abs=EXACT * h)
+    assert smooth_prefix(np.array([1.0, 2.0, 3.0, 4.0, 4.5, 5.0])) == 4
+
+
+@pytest.mark.parametrize("grid", [uniform, graded])
+@pytest.mark.parametrize("b", [0.5013, 0.5219, 0.5488])
+def test_gap_edge_exact_for_three_halves_gap(grid, b):
+    x = grid()
+    status = np.where(x < b, STICK, OPEN)
+    gap = np.where(x < b, -1e-9, 0.7 * np.clip(x - b, 0.0, None) ** 1.5)
+    end = int(np.flatnonzero(status > OPEN)[-1])
+    h = x[end + 1] - x[end]
+    assert gap_edge(x, gap, status, end, +1) == pytest.approx(b, abs=EXACT * h)
+
+
+def test_gap_edge_needs_open_nodes_of_finite_gap():
+    x = uniform()
+    status = np.where(x < 0.5, STICK, OPEN)
+    gap = np.where(x < 0.5, 0.0, np.inf)  # beyond a sharp corner
+    end = int(np.flatnonzero(status > OPEN)[-1])
+    assert gap_edge(x, gap, status, end, +1) is None
+
+
+def cattaneo_nodes(x, a, c, mu=0.5, reverse=False):
+    """Hertz pressure on [-a, a], stick zone [-c, c] (Cattaneo), optionally reversed shear."""
+    p = np.sqrt(np.clip(a * a - x * x, 0.0, None))
+    q = mu * (p - np.sqrt(np.clip(c * c - x * x, 0.0, None)))
+    if reverse:
+        q = -q
+    status = np.where(p > 0, np.where(np.abs(x) < c, STICK, SLIP), OPEN).astype(np.int8)
+    gap = np.where(p > 0, 0.0, np.clip(np.abs(x) - a, 0.0, None) ** 1.5)
+    return p, q, status, gap
+
+
+@pytest.mark.parametrize("reverse", [False, True])
+@pytest.mark.parametrize("grid", [uniform, graded])
+def test_contact_and_stick_exact_for_cattaneo(grid, reverse):
+    x = grid(161)
+    a, c, mu = 0.6071, 0.4133, 0.5
+    p, q, status, gap = cattaneo_nodes(x, a, c, mu, reverse)
+    zones, sticks = contact_and_stick(x, p, q, status, np.ones(x.size, bool), mu, gap)
+    h = np.max(np.diff(x))
+    assert np.allclose(zones, [(-a, a)], atol=1e-6 * h)
+    assert np.allclose(sticks, [(-c, c)], atol=EXACT * h)
+
+
+def test_stick_edge_where_the_shear_changes_sign_in_the_stick_zone():
+    """Stage 3: q < 0 in the slip zones, q > 0 in the middle of the stick zone; mu p + q
+    (not mu p - |q|, which has a kink where q = 0) is the sqrt-shaped function."""
+    x = uniform(161)
+    a, c, mu = 0.6071, 0.4133, 0.5
+    p = np.sqrt(np.clip(a * a - x * x, 0.0, None))
+    q = -mu * p + 2 * mu * np.sqrt(np.clip(c * c - x * x, 0.0, None))
+    status = np.where(p > 0, np.where(np.abs(x) < c, STICK, SLIP), OPEN).astype(np.int8)
+    assert np.any(q[np.abs(x) < c] > 0) and np.all(q[status == SLIP] < 0)
+    _, sticks = contact_and_stick(x, p, q, status, np.ones(x.size, bool), mu)
+    assert np.allclose(sticks, [(-c, c)], atol=EXACT * (x[1] - x[0]))
+
+
+def test_singular_edge_at_the_corner_node():
+    """A flat punch: p ~ 1/sqrt rising to the corner nodes, which are the edges."""
+    x = uniform()
+    inside = np.abs(x) <= 0.5 + 1e-12
+    p = np.where(inside, 1.0 / np.sqrt(np.clip(0.25 - x * x, 0.0, None) + 0.01), 0.0)
+    status = np.where(inside, STICK, OPEN).astype(np.int8)
+    zones, _ = contact_and_stick(x, p, 0 * p, status, np.ones(x.size, bool), 0.5)
+    assert zones == ((-0.5, 0.5),)
+
+
+def test_a_kink_next_to_the_edge_falls_back_to_the_outermost_nodes():
+    """A stage-3 stick zone can hold the frozen stage-2 stick edge within two elements of its
+    own edge: further in, f**2 is not the edge's sqrt, the skipped nodes are off the fit, and
+    the line through the two outermost nodes (on the sqrt part here) is used."""
+    x = uniform()
+    b, kink = 0.5219, 0.4719
+    f2 = np.where(x < kink, (b - kink) + 3.0 * (kink - x), b - x)  # fit root in bounds
+    f = np.sqrt(np.clip(f2, 0.0, None)) * (x > -0.5)
+    i0, i1 = run_of(f)
+    assert x[i1 - 1] > kink > x[i1 - 2]
+    assert sqrt_edge(x, f, (i0, i1), +1) == pytest.approx(b, abs=EXACT * (x[1] - x[0]))

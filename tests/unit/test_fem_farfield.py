@@ -1,0 +1,73 @@
+"""Flamant far field (fem.farfield): the closed form and its multipole expansion."""
+
+import numpy as np
+import pytest
+
+from fem.farfield import ORDERS, flamant_body, flamant_lower, moment_matrix
+
+E, NU = 2.0, 0.3
+LAM, G = E * NU / ((1 + NU) * (1 - 2 * NU)), E / (2 * (1 + NU))
+#: Central-difference step and the agreement it allows (truncation ~ step^2 / r^2).
+STEP, FD_TOL = 1e-5, 1e-6
+
+
+def stress(x, y, force, upper):
+    """Plane-strain stress (sxx, syy, sxy) from central differences of the displacement."""
+    ux = [np.array(flamant_body(x + s * STEP, y, force, upper, E, NU)) for s in (1, -1)]
+    uy = [np.array(flamant_body(x, y + s * STEP, force, upper, E, NU)) for s in (1, -1)]
+    dx, dy = (ux[0] - ux[1]) / (2 * STEP), (uy[0] - uy[1]) / (2 * STEP)
+    tr = dx[0] + dy[1]
+    return LAM * tr + 2 * G * dx[0], LAM * tr + 2 * G * dy[1], G * (dx[1] + dy[0])
+
+
+@pytest.mark.parametrize("upper", [False, True])
+@pytest.mark.parametrize("force", [1.0 + 0.0j, 1.0j, 0.6 - 0.8j])
+def test_flamant_is_the_surface_point_force(force, upper):
+    """Traction-free surface away from the load; the stresses on a half-circle balance the
+    force (Flamant: sigma_rr = -2 F cos / (pi r))."""
+    side = 1.0 if upper else -1.0
+    xs = np.array([-3.0, -0.7, 0.4, 2.5])
+    sxx, syy, sxy = stress(xs, side * 2 * STEP, force, upper)
+    assert np.max(np.abs(syy)) < 1e-4 and np.max(np.abs(sxy)) < 1e-4
+    n, r = 4000, 2.0
+    th = (np.arange(n) + 0.5) * np.pi / n  # midpoint rule, off the surface
+    nx, ny = np.cos(th), side * np.sin(th)
+    sxx, syy, sxy = stress(r * nx, r * ny, force, upper)
+    fx = np.sum(sxx * nx + sxy * ny) * r * np.pi / n
+    fy = np.sum(sxy * nx + syy * ny) * r * np.pi / n
+    assert fx == pytest.approx(-force.real, abs=1e-5)
+    assert fy == pytest.approx(-force.imag, abs=1e-5)
+
+
+@pytest.mark.parametrize("m", range(1, ORDERS))
+def test_multipole_terms_are_x_derivatives(m):
+    x, y = np.array([-2.0, 0.5, 3.0]), np.array([-1.0, -0.2, -2.5])
+    for force in (1.0 + 0.0j, 1.0j):
+        fd = (
+            flamant_lower(x + STEP, y, force, E, NU, m - 1)
+            - flamant_lower(x - STEP, y, force, E, NU, m - 1)
+        ) / (2 * STEP)
+        exact = flamant_lower(x, y, force, E, NU, m)
+        assert np.max(np.abs(fd - exact)) < FD_TOL * np.max(np.abs(exact)) * 10
+
+
+def test_expansion_reproduces_distributed_forces_far_away():
+    """sum_j f_j G(x - x_j) vs the truncated multipole series about xr: error ~ (a / r)^ORDERS."""
+    xj = np.linspace(-0.3, 0.5, 9)
+    f = np.cos(xj)
+    R = moment_matrix(xj, 0.1)
+    moments = R[ORDERS:] @ np.r_[np.zeros_like(f), f]
+    for r, tol in ((10.0, 1e-4), (40.0, 3e-6)):
+        px, py = r * np.cos(-2.0), r * np.sin(-2.0)
+        exact = sum(
+            fj * flamant_lower(px - x, py, 1.0j, E, NU) for fj, x in zip(f, xj, strict=True)
+        )
+        series = sum(
+            (-1) ** m
+            / np.prod(np.arange(1, m + 1))
+            * moments[m]
+            * flamant_lower(px - 0.1, py, 1.0j, E, NU, m)
+            for m in range(ORDERS)
+        )
+        far = flamant_lower(px - 0.1, py, 1.0j, E, NU, 1) * f.sum()  # dipole-size scale
+        assert abs(series - exact) < tol * abs(far) * r
