@@ -110,7 +110,7 @@ def load_operator(scalar) -> csr_matrix:
     for i, phi in enumerate(scalar.basis):
         rows.append(np.repeat(scalar.element_dofs[i], n_qp))
         cc.append(cols.ravel())
-        vals.append((phi[0].value * scalar.dx).ravel())
+        vals.append((np.asarray(phi[0]) * scalar.dx).ravel())
     return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cc))),
                       shape=(scalar.N, n_el * n_qp)).tocsr()
 
