@@ -259,7 +259,7 @@ def stress_metrics(case: Case, an: AnalyticResult, hist: fem.FemHistory
                    ) -> tuple[dict, list[StressRow]]:
     """The stress metrics of a case and the per-state rows (all NaN, no rows, for a result
     without body fields: an external code's interface-only result, ``compare.verify``)."""
-    if getattr(hist, "fields", None) is None:
+    if not hist.has_fields:
         return dict.fromkeys(STRESS_METRICS, NAN), []
     ns = an.normal
     nodes = body2_nodes(hist)

@@ -140,7 +140,7 @@ def unavailable(case: Case, hist: fem.FemHistory, metrics: dict) -> dict:
         why["jc_error"] = ("needs stage-1 steps at the reduced loads P* = P0 - Q/mu (stage 2) or "
                            "P** = P0 - (Q0 - Q)/(2 mu) (stage 3) of its stage-2/3 steps; the "
                            f"result has none within {JC_PAIR_RTOL:g} P0")
-    if getattr(hist, "fields", None) is None:
+    if not hist.has_fields:
         applies = STRESS_METRICS if case.Q0 > 0 else STRESS_METRICS[:2]
         for k in applies:
             why[k] = "the result has interface data only (no body stresses)"

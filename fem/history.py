@@ -63,6 +63,8 @@ class FemHistory:
     reaction checks of all increments) and 'history' (everything after assembly).
     mu, E, nu, P0, Q0: the inputs. h_min: finest
     interface element length. n_candidates: interface pairs in the contact model.
+    fields: the body-field recovery (displacements, stresses); None for an interface-only
+    result read from another code (``compare.external``).
     """
 
     steps: tuple
@@ -78,6 +80,11 @@ class FemHistory:
     h_min: float
     n_candidates: int
     fields: object = field(repr=False, compare=False)
+
+    @property
+    def has_fields(self) -> bool:
+        """Whether body fields (displacements, stresses) can be recovered."""
+        return self.fields is not None
 
     def stage(self, k: int) -> tuple:
         """Steps of stage k (1, 2 or 3)."""

@@ -97,7 +97,7 @@ def _status_panel(ax, res: CaseResult, step) -> None:
 def region_figure(res: CaseResult) -> bytes | None:
     """PNG of :func:`region_axes`; None for a result without body fields (an external code's
     interface-only result), which has no stress field to draw."""
-    if getattr(res.fem, "fields", None) is None:
+    if not res.fem.has_fields:
         return None
     return png(region_axes(res))
 

@@ -110,7 +110,7 @@ def stress_figures(res: CaseResult) -> dict:
     """Title -> PNG of the stress figures of a case (None entries dropped by the caller); the
     FE stress figures only for a result with body fields (not an external interface result)."""
     out = {}
-    if getattr(res.fem, "fields", None) is not None:
+    if res.fem.has_fields:
         out = {"surface sxx (body 2)": surface_figure(res),
                "subsurface max shear: analytic | FE": contour_figure(res)}
     return out | {"stick-slip map and Ruiz parameter": ruiz_figure(res)}
