@@ -24,11 +24,9 @@ from skfem import (
 )
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
-from .mesh import TwoBodyMesh
+from .mesh import INTERFACE_ATOL, TwoBodyMesh
 
 ELEMENTS = {1: ElementQuad1, 2: ElementQuad2}
-#: Nodes with |y| below this (length) lie on the interface line (as in fem.mesh.from_bodies).
-INTERFACE_ATOL = 1e-12
 
 
 @dataclass(frozen=True)

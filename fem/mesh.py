@@ -24,6 +24,8 @@ from .settings import MeshFile, MeshSpec, validate_mesh_spec
 BOUNDARY_NAMES = ("contact_upper", "contact_lower", "top", "bottom")
 #: Relative tolerance (to the smallest interface element) for matching node x.
 MATCH_TOL = 1e-6
+#: Nodes with |y| below this (length) lie on the interface line y = 0.
+INTERFACE_ATOL = 1e-12
 #: Depth (multiple of the widest window) of the near-field grading under the contact: at 0.5
 #: the Hertz width stayed 0.033 % short at level 1, at 2 0.020 %, at 4 0.019 % (1.1x the dofs).
 NEAR_DEPTH = 2.0
@@ -214,9 +216,9 @@ def from_bodies(upper: MeshQuad, lower: MeshQuad, source: str) -> TwoBodyMesh:
     """Find the named boundaries of two rectangles-on-y=0 meshes by coordinates."""
     y1, y2 = upper.p[1], lower.p[1]
     nodes = {
-        "contact_upper": np.flatnonzero(np.isclose(y1, 0.0, atol=1e-12)),
+        "contact_upper": np.flatnonzero(np.isclose(y1, 0.0, atol=INTERFACE_ATOL)),
         "top": np.flatnonzero(np.isclose(y1, y1.max())),
-        "contact_lower": np.flatnonzero(np.isclose(y2, 0.0, atol=1e-12)),
+        "contact_lower": np.flatnonzero(np.isclose(y2, 0.0, atol=INTERFACE_ATOL)),
         "bottom": np.flatnonzero(np.isclose(y2, y2.min())),
     }
     return finish(upper, lower, nodes, source)

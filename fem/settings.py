@@ -127,26 +127,6 @@ class LoadPath:
         return s2, s3
 
 
-def validate_material(E: float, nu: float) -> None:
-    """Raise InputError unless E > 0 and -1 < nu < 0.5."""
-    if not np.isfinite(E) or E <= 0:
-        raise InputError(f"E={E!r} is not allowed: need E > 0")
-    if not (-1.0 < nu < 0.5):
-        raise InputError(f"nu={nu!r} is not allowed: need -1 < nu < 0.5")
-
-
-def validate_loads(P0: float, Q0: float, mu: float, M: float | None) -> None:
-    """Raise InputError unless P0 > 0, mu > 0 and 0 <= Q0 <= mu P0."""
-    if not np.isfinite(P0) or P0 <= 0:
-        raise InputError(f"P0={P0!r} is not allowed: need P0 > 0")
-    if not np.isfinite(mu) or mu <= 0:
-        raise InputError(f"mu={mu!r} is not allowed: need mu > 0")
-    if not np.isfinite(Q0) or Q0 < 0 or Q0 > mu * P0 * (1 + 1e-12):
-        raise InputError(f"Q0={Q0!r} is not allowed: need 0 <= Q0 <= mu*P0 = {mu * P0:g}")
-    if M is not None and not np.isfinite(M):
-        raise InputError(f"M={M!r} is not allowed: need a finite moment or None")
-
-
 def validate_path(path: LoadPath, Q0: float) -> tuple[np.ndarray, np.ndarray]:
     """Check the load path and return the stage-2 and stage-3 Q values."""
     if path.n_normal < 1:
