@@ -107,9 +107,7 @@ def box_mask(x: np.ndarray, y: np.ndarray, zones, points) -> np.ndarray:
         w = b - a
         keep |= (x >= a - BOX_PAD * w) & (x <= b + BOX_PAD * w) & (y < 0) & (y >= -BOX_DEPTH * w)
     for s in points:
-        w = min((b - a for a, b in zones if a - 1e-12 <= s <= b + 1e-12),
-                default=max(b - a for a, b in zones))
-        keep &= np.hypot(x - s, y) > STRESS_EXCLUSION * w
+        keep &= np.hypot(x - s, y) > STRESS_EXCLUSION * mt.zone_width_at(zones, s)
     return keep
 
 
