@@ -73,12 +73,17 @@ def regular_mask(x: np.ndarray, zones: Sequence[Zone], singular_points: Sequence
                  ) -> np.ndarray:
     """Nodes not within SINGULAR_EXCLUSION * (zone width) of a singular point."""
     keep = np.ones(x.shape, bool)
-    widths = [b - a for a, b in zones]
     for s in singular_points:
-        w = min((wd for (a, b), wd in zip(zones, widths, strict=True) if a - 1e-12 <= s
-                 <= b + 1e-12), default=max(widths) if widths else 0.0)
-        keep &= np.abs(x - s) > SINGULAR_EXCLUSION * w
+        keep &= np.abs(x - s) > SINGULAR_EXCLUSION * zone_width_at(zones, s)
     return keep
+
+
+def zone_width_at(zones: Sequence[Zone], s: float) -> float:
+    """Width of the narrowest zone holding ``s`` (the widest zone if none; 0 without zones):
+    the length scale of the exclusion around a singular point."""
+    widths = [b - a for a, b in zones]
+    return min((wd for (a, b), wd in zip(zones, widths, strict=True) if a - 1e-12 <= s
+                <= b + 1e-12), default=max(widths) if widths else 0.0)
 
 
 def singular_points(zones: Sequence[Zone], singular: Sequence[tuple[bool, bool]],

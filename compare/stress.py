@@ -88,11 +88,16 @@ def _mass(u, v, w):
     return u * v
 
 
+def body2_xy(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, y)`` of body 2's stress nodes (no assembly: for callers that need no weights)."""
+    sb = hist.fields.disc.scalar_bases[1]
+    return sb.doflocs[0], sb.doflocs[1]
+
+
 def body2_nodes(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(x, y, w)`` of body 2's stress nodes, ``w`` the lumped-mass (area) weights."""
-    sb = hist.fields.disc.scalar_bases[1]
-    w = np.asarray(asm(_mass, sb).sum(axis=1)).ravel()
-    return sb.doflocs[0], sb.doflocs[1], w
+    w = np.asarray(asm(_mass, hist.fields.disc.scalar_bases[1]).sum(axis=1)).ravel()
+    return (*body2_xy(hist), w)
 
 
 def box_mask(x: np.ndarray, y: np.ndarray, zones, points) -> np.ndarray:
@@ -102,9 +107,7 @@ def box_mask(x: np.ndarray, y: np.ndarray, zones, points) -> np.ndarray:
         w = b - a
         keep |= (x >= a - BOX_PAD * w) & (x <= b + BOX_PAD * w) & (y < 0) & (y >= -BOX_DEPTH * w)
     for s in points:
-        w = min((b - a for a, b in zones if a - 1e-12 <= s <= b + 1e-12),
-                default=max(b - a for a, b in zones))
-        keep &= np.hypot(x - s, y) > STRESS_EXCLUSION * w
+        keep &= np.hypot(x - s, y) > STRESS_EXCLUSION * mt.zone_width_at(zones, s)
     return keep
 
 
@@ -150,7 +153,7 @@ def peak_windows(zones) -> list[tuple[float, float]]:
 
 def fem_surface(hist: fem.FemHistory, step, window) -> tuple[np.ndarray, np.ndarray]:
     """Body 2's contact-row nodes in the window (sorted by x) and their nodal sxx."""
-    x, y, _ = body2_nodes(hist)
+    x, y = body2_xy(hist)
     row = np.flatnonzero((y == 0) & (x >= window[0]) & (x <= window[1]))
     row = row[np.argsort(x[row])]
     return x[row], hist.stress(step)[1][0, row]

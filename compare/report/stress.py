@@ -63,7 +63,7 @@ def contour_figure(res: CaseResult) -> bytes:
     x0, x1 = lo - cs.BOX_PAD * w, hi + cs.BOX_PAD * w
     X, Y = np.meshgrid(np.linspace(x0, x1, GRID[0]), np.linspace(-cs.BOX_DEPTH * w, 0, GRID[1]))
     tau_an = analytic.stress(sol, X, Y, nu=res.case.nu).max_shear
-    x, y, _ = cs.body2_nodes(res.fem)
+    x, y = cs.body2_xy(res.fem)
     step = cs.fem_step(res.fem, stage, Q)
     s = res.fem.stress(step)[1]
     m = (x >= x0) & (x <= x1) & (y >= -2 * cs.BOX_DEPTH * w)  # graded rows: overshoot, clip
