@@ -110,10 +110,11 @@ def _render(sections: list[CaseSection], jobs: list, root: Path) -> None:
     todo = [(sec, job) for sec, job in zip(sections, jobs, strict=True) if job is not None]
     t0 = time.perf_counter()
     done = render_many([job for _, job in todo])
+    share = (time.perf_counter() - t0) / max(len(todo), 1)  # one child renders them all
     for (sec, (_, png, _)), (ok, why) in zip(todo, done, strict=True):
         sec.render, sec.render_note = (png.relative_to(root).as_posix(), "") if ok else ("", why)
         sec.render_png = png.read_bytes() if ok else b""
-        sec.seconds += (time.perf_counter() - t0) / len(todo)
+        sec.seconds += share
 
 
 def _atomic_dir(tmp: Path, out: Path) -> None:
