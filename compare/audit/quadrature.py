@@ -52,11 +52,6 @@ class Rule:
     piece: np.ndarray
     pieces: tuple[tuple[float, float, int], ...]
 
-    def without_piece(self, i: int) -> Rule:
-        """The rule without the nodes of piece ``i``."""
-        keep = self.piece != i
-        return Rule(self.x[keep], self.w[keep], self.zone[keep], self.piece[keep], self.pieces)
-
     def piece_holding(self, x: float) -> int:
         """Index of the piece with ``lo < x < hi`` (-1 if none)."""
         for i, (lo, hi, _) in enumerate(self.pieces):

@@ -16,10 +16,8 @@ disagreement: ``bem_unresolved`` (the BEM's two resolutions disagree on the zone
 from __future__ import annotations
 
 import json
-import os
 import resource
 import signal
-import tempfile
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -33,6 +31,7 @@ import analytic
 from compare import bem
 from compare.audit import checks
 from compare.audit.cases import AuditCase, make_case
+from compare.sweep import write_atomic
 
 CASE_TIME_LIMIT = 120.0
 """CPU seconds per case (solve and checks) before it counts as a ``timeout``: CPU time, so that
@@ -242,17 +241,6 @@ def write_table(results: list[CaseResult], out_dir: Path) -> dict:
     head = summary(results)
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = {"summary": head, "cases": [asdict(r) for r in results]}
-    _write_atomic(out_dir / "audit.json", json.dumps(doc, indent=1, default=float))
-    _write_atomic(out_dir / "audit.md", markdown(results, head))
+    write_atomic(out_dir / "audit.json", json.dumps(doc, indent=1, default=float))
+    write_atomic(out_dir / "audit.md", markdown(results, head))
     return head
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise

@@ -40,6 +40,7 @@ from compare.analytic_side import solve_normal_case
 from compare.cases import Case, load_case
 from compare.errors import CaseError
 from compare.external import write_result
+from compare.external.csvio import MANIFEST, step_name
 from compare.fem_side import kinks, mesh, run_fem, window
 
 #: Kratos' AUGMENTED_NORMAL_CONTACT_PRESSURE is negative in compression (sum p w = -P).
@@ -312,14 +313,14 @@ def write_steps(out: Path, case: str, x: np.ndarray, rows: list, n_dofs: int, se
             f"# targets: {note}"]
     lines = head + ["step,stage,P,Q,M,file"]
     for k, (stage, d) in enumerate(rows):
-        name = f"step_{k:04d}.csv"
+        name = step_name(k)
         F = KRATOS_SHEAR_SIGN  # loads are written in Kratos' shear sense, like q
         lines.append(f"{k},{stage},{d['P']:.12g},{F * d['Q']:.12g},{d['M']:.12g},{name}")
         table = ["x,p,q,status"] + [f"{a!r},{b:.10g},{c:.10g},{int(s)}" for a, b, c, s in zip(
             x.tolist(), d["p"].tolist(), d["q"].tolist(), d["status"].tolist(), strict=True)]
         (out / name).write_text("\n".join(table) + "\n")
-    (out / "steps.csv").write_text("\n".join(lines) + "\n")
-    return out / "steps.csv"
+    (out / MANIFEST).write_text("\n".join(lines) + "\n")
+    return out / MANIFEST
 
 
 def main(argv: list[str] | None = None) -> int:
