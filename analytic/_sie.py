@@ -335,14 +335,13 @@ def _squad_plan(pinned: tuple, kinks: tuple, segments: tuple, pieces: tuple | No
         row = -eps  # exponents of |s - e_i| left outside the Jacobi weight
         at_lo = lo < n_edges and l_lam == 0.0
         at_hi = hi < n_edges and h_lam == 0.0
-        if (at_lo and vertical[lo]) or (at_hi and vertical[hi]):
+        at_vertical = (at_lo and vertical[lo]) or (at_hi and vertical[hi])
+        if at_vertical:  # the sine rule: every edge factor stays outside its weight
             at_lo = at_hi = False
         al = row[lo] if at_lo else 0.0
         ah = row[hi] if at_hi else 0.0
         row[[i for i, at in ((lo, at_lo), (hi, at_hi)) if at]] = 0.0
-        t, w = sine_rule(n) if row.size and (lo < n_edges and vertical[lo] and l_lam == 0.0
-                                             or hi < n_edges and vertical[hi] and h_lam == 0.0
-                                             ) else jacobi_rule(n, float(ah), float(al))
+        t, w = sine_rule(n) if at_vertical else jacobi_rule(n, float(ah), float(al))
         power.append(1.0 + al + ah)
         ts.append(t)
         ws.append(w)
