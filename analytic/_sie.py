@@ -295,27 +295,28 @@ def _graded_panels(cuts: list[float], idx: list[int], i: int, clearance: float) 
     of the segment gets panels ``c GRADING^m`` from it (c that distance); one panel otherwise."""
     lo, hi = cuts[i], cuts[i + 1]
     length = hi - lo
+    c_lo = lo - cuts[i - 1] if 0 < i else math.inf  # lo is a kink: distance to the cut before
+    c_hi = cuts[i + 2] - hi if i + 2 < len(cuts) else math.inf  # hi is a kink: ... after
     ends = [((idx[i], idx[i], 0.0), lo)]
-    if 0 < i:  # lo is a kink: grade when the previous cut is close
-        c = lo - cuts[i - 1]
-        m = 0
-        while c < KINK_GRADE * length and c * GRADING**m < KINK_GRADE * length:
-            ends.append(((idx[i], idx[i - 1], -GRADING**m), lo + c * GRADING**m))
-            m += 1
+    ends += [((idx[i], idx[i - 1], -g), lo + c_lo * g) for g in _kink_grades(c_lo, length)]
     right = [((idx[i + 1], idx[i + 1], 0.0), hi)]
-    if i + 2 < len(cuts):  # hi is a kink
-        c = cuts[i + 2] - hi
-        m = 0
-        while c < KINK_GRADE * length and c * GRADING**m < KINK_GRADE * length:
-            right.append(((idx[i + 1], idx[i + 2], -GRADING**m), hi - c * GRADING**m))
-            m += 1
+    right += [((idx[i + 1], idx[i + 2], -g), hi - c_hi * g) for g in _kink_grades(c_hi, length)]
     ends += right[::-1]
     out = []
     for (e0, x0), (e1, x1) in zip(ends[:-1], ends[1:], strict=True):
-        near = min(x0 - lo + (lo - cuts[i - 1] if i > 0 else math.inf),
-                   hi - x1 + (cuts[i + 2] - hi if i + 2 < len(cuts) else math.inf))
+        near = min(x0 - lo + c_lo, hi - x1 + c_hi)
         n = nodes_for(x1 - x0, min(clearance, near))
         out.append(((*e0, *e1, n), x0, x1))
+    return out
+
+
+def _kink_grades(c: float, length: float) -> list[float]:
+    """``GRADING^m``, m = 0, 1, ..., while ``c GRADING^m < KINK_GRADE length`` (none when the
+    cut beyond the kink is not close, or there is no kink: ``c = inf``)."""
+    out, m = [], 0
+    while c * GRADING**m < KINK_GRADE * length:
+        out.append(GRADING**m)
+        m += 1
     return out
 
 
@@ -335,14 +336,13 @@ def _squad_plan(pinned: tuple, kinks: tuple, segments: tuple, pieces: tuple | No
         row = -eps  # exponents of |s - e_i| left outside the Jacobi weight
         at_lo = lo < n_edges and l_lam == 0.0
         at_hi = hi < n_edges and h_lam == 0.0
-        if (at_lo and vertical[lo]) or (at_hi and vertical[hi]):
+        at_vertical = (at_lo and vertical[lo]) or (at_hi and vertical[hi])
+        if at_vertical:  # the sine rule: every edge factor stays outside its weight
             at_lo = at_hi = False
         al = row[lo] if at_lo else 0.0
         ah = row[hi] if at_hi else 0.0
         row[[i for i, at in ((lo, at_lo), (hi, at_hi)) if at]] = 0.0
-        t, w = sine_rule(n) if row.size and (lo < n_edges and vertical[lo] and l_lam == 0.0
-                                             or hi < n_edges and vertical[hi] and h_lam == 0.0
-                                             ) else jacobi_rule(n, float(ah), float(al))
+        t, w = sine_rule(n) if at_vertical else jacobi_rule(n, float(ah), float(al))
         power.append(1.0 + al + ah)
         ts.append(t)
         ws.append(w)
