@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 import compare
+from compare import case_format
 from compare import cases as case_schema
 from compare.errors import CaseError
 
@@ -317,13 +318,13 @@ def allowed_parameters(base: dict) -> list[str]:
     out = []
     if prof.get("type") == "union":
         for i, mem in enumerate(prof.get("members", [])):
-            keys = case_schema.PROFILE_SCHEMAS.get(mem.get("type"), {})
+            keys = case_format.PROFILE_SCHEMAS.get(mem.get("type"), {})
             out += [f"profile.members.{i}.{k}" for k in keys]
     else:
-        out += [f"profile.{k}" for k in case_schema.PROFILE_SCHEMAS.get(prof.get("type"), {})]
-    for sec, keys in (("material", case_schema.MATERIAL_KEYS), ("load", case_schema.LOAD_KEYS),
-                      ("samples", case_schema.SAMPLE_KEYS), ("fem", case_schema.FEM_KEYS),
-                      ("tolerances", case_schema.DEFAULT_TOLERANCES)):
+        out += [f"profile.{k}" for k in case_format.PROFILE_SCHEMAS.get(prof.get("type"), {})]
+    for sec, keys in (("material", case_format.MATERIAL_KEYS), ("load", case_format.LOAD_KEYS),
+                      ("samples", case_format.SAMPLE_KEYS), ("fem", case_format.FEM_KEYS),
+                      ("tolerances", case_format.DEFAULT_TOLERANCES)):
         out += [f"{sec}.{k}" for k in keys]
     return out
 
