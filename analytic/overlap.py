@@ -20,9 +20,10 @@ import numpy as np
 from scipy.optimize import brentq
 
 from analytic import _validate as check
+from analytic._contour import zone_loads
 from analytic._sie import Layout, System
 from analytic.errors import InputError
-from analytic.normal import load_curve, zone_loads
+from analytic.normal import load_curve
 from analytic.profiles import Profile, double_wedge
 
 SCAN_POINTS = 4001

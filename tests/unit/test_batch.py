@@ -1,6 +1,6 @@
 """Unit tests of the batched equations of ``analytic._sie`` (:class:`Batch`): every member of a
 batch evaluates what its own one-layout System evaluates, the gap rules planned as affine maps
-reproduce the graded rule, and the one-batch finite-difference Jacobian of ``analytic.normal``
+reproduce the graded rule, and the one-batch finite-difference Jacobian of ``analytic._newton``
 matches column-by-column differences."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import analytic
-from analytic import normal, profiles
+from analytic import _newton, profiles
 from analytic._sie import GAP_CHUNK, GRADING, Batch, Layout, System, graded_rule
 
 ROUNDOFF = 1e-12
@@ -98,19 +98,19 @@ def test_planned_gap_rule_is_the_graded_rule(length: float, clearance: float,
 
 def test_jacobian_in_one_batch_matches_column_differences(solved) -> None:
     lay, P = solved._system.layout, solved.P
-    st = normal._fresh_state(lay, 0.0, P)
-    st.beta = normal._beta_for(st, solved.A, P)
+    st = _newton.fresh_state(lay, 0.0, P)
+    st.beta = _newton.beta_for(st, solved.A, P)
     for M in (None, solved.M):
-        mode = normal._Mode(P, M)
-        F, _ = normal._residual(st, mode, solved.profile, solved.A)
-        z = normal._pack(st, mode)
-        J = normal._jacobian(z, F, st, mode, solved.profile, solved.A)
-        steps = normal._fd_steps(z, st, mode, solved.profile)
+        mode = _newton.Mode(P, M)
+        F, _ = _newton.residual(st, mode, solved.profile, solved.A)
+        z = _newton._pack(st, mode)
+        J = _newton._jacobian(z, F, st, mode, solved.profile, solved.A)
+        steps = _newton._fd_steps(z, st, mode, solved.profile)
         for j in range(z.size):
             zp = z.copy()
             zp[j] += steps[j]
-            trial = normal._unpack(zp, st, mode, solved.A)
-            col = (normal._residual(trial, mode, solved.profile, solved.A)[0] - F) / steps[j]
+            trial = _newton._unpack(zp, st, mode, solved.A)
+            col = (_newton.residual(trial, mode, solved.profile, solved.A)[0] - F) / steps[j]
             assert np.allclose(J[:, j], col, rtol=0, atol=FD_NOISE * np.max(np.abs(J)))
 
 

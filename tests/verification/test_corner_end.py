@@ -95,7 +95,7 @@ def test_edges_approach_the_arc_ends_logarithmically(punch) -> None:
     """A free edge a distance d short of the arc's end carries ``P ~ C0 - C1 ln d`` (the arc's
     slope ``d^(-1/2)`` just beyond it): it reaches the end only in the limit (d = 7e-5 at
     P = 8, 7e-8 at P = 15), and pins there once d is below 3e-9 of the span (P ~ 16.5), where
-    its load is rounding-limited (``normal.VERTICAL_LANDING``)."""
+    its load is rounding-limited (``analytic._topology.VERTICAL_LANDING``)."""
     loads = [8.0, 9.0, 12.0, 15.0, 20.0, 25.0]
     curve = analytic.load_curve(punch, loads, A)
     free = [s for s in curve if s.singular == [(False, False)]]

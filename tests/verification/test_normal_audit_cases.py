@@ -18,7 +18,7 @@ import pytest
 
 import analytic
 from analytic import profiles
-from analytic._moment import _initial_rotation
+from analytic._applied_moment import _initial_rotation
 from compare.bem import solve_normal_bem
 
 BEM_N = 4096

@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
+from analytic._continuation import StepFailed, converge, solve_fixed
+from analytic._newton import State
 from analytic._sie import System
 from analytic.errors import ConvergenceError, InputError
-from analytic.normal import _converge, _solve_fixed, _State, _StepFailed
 from analytic.profiles import Profile
 
 THETA_XTOL = 1e-13
@@ -35,7 +36,7 @@ def _moment_at(profile: Profile, P: float, A: float, theta: float):
     if not profile.admits_tilt(theta):  # h0 - theta x flat or falling out to infinity
         return None
     try:
-        st, sys_ = _solve_fixed(profile, P, A, theta)
+        st, sys_ = solve_fixed(profile, P, A, theta)
     except ConvergenceError:
         return None
     return st, sys_, sys_.load_and_moment()[1]
@@ -66,7 +67,7 @@ def _bracket(profile, P, A, M, theta0, step):
                      "(the body tips off its contact)")
 
 
-def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[_State, System]:
+def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[State, System]:
     xe = check_tipping(profile, P, M)
     theta0 = _initial_rotation(profile, xe)
     scale = abs(theta0) + A * P / profile.scale + 1e-12
@@ -78,10 +79,10 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[_
     except ValueError as exc:  # a re-solve at a bracket end gave M - M(theta) the other sign
         raise ConvergenceError(f"moment search lost its bracket: {exc}",
                                {"theta_bracket": (t_lo, t_hi)}) from exc
-    st, sys_ = _solve_fixed(profile, P, A, theta)
+    st, sys_ = solve_fixed(profile, P, A, theta)
     try:
-        return _converge(st, profile, A, M)
-    except _StepFailed as exc:
+        return converge(st, profile, A, M)
+    except StepFailed as exc:
         if abs(sys_.load_and_moment()[1] - M) <= 1e-10 * P * st.ell:
             return st, sys_
         raise ConvergenceError(f"moment polish failed: {exc}", {"theta": theta}) from exc

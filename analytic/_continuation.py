@@ -1,0 +1,227 @@
+"""Continuation in the load P at fixed rotation theta, with the contact topology kept
+admissible.
+
+:func:`solve_fixed` solves at one load (Newton from the overlap guess, else continuation from
+the first touch); :func:`continue_to` follows the load in geometric steps, predicting the edges
+by extrapolation in log P through earlier states of the same topology, halving a failed step
+or merging two zones about to meet.  :func:`converge` solves one step: Newton
+(:mod:`analytic._newton`), then pins, admissibility checks and topology events until the state
+is admissible; it raises :class:`StepFailed` when the topology does not settle.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from analytic._admissibility import find_event
+from analytic._first_touch import initial_state
+from analytic._guess import overlap_guess
+from analytic._newton import Mode, NewtonFailed, State, beta_for, feasible, fresh_state, newton
+from analytic._sie import Layout, System
+from analytic._topology import (
+    PIN_DISTANCE,
+    VERTICAL_LANDING,
+    Event,
+    apply_event,
+    pin_nearest,
+    shrunk_new_zone,
+)
+from analytic.errors import ConvergenceError
+from analytic.profiles import Profile
+
+MAX_TOPOLOGY_CHANGES = 12
+
+
+class StepFailed(Exception):
+    """A continuation step found no admissible state (its caller shortens the step, merges
+    zones, or gives up with a :class:`analytic.errors.ConvergenceError`)."""
+
+
+def solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[State, System]:
+    """Newton straight from the overlap guess at P; full continuation from the first touch if
+    that fails (the admissibility checks decide either way)."""
+    guess = overlap_guess(profile, theta, P, A)
+    if guess is not None:
+        st = fresh_state(guess, theta, P)
+        st.beta = beta_for(st, A, P)
+        try:
+            return converge(st, profile, A, None)
+        except StepFailed:
+            pass
+    st = initial_state(profile, A, theta, P)
+    st, sys_, _ = continue_to(st, P, profile, A)
+    return st, sys_
+
+
+def continue_to(st: State, P_target: float, profile: Profile, A: float,
+                prev: tuple[State, ...] = ()) -> tuple[State, System, tuple[State, ...]]:
+    ratio = 4.0
+    sys_ = None
+    guard = 0
+    while True:
+        guard += 1
+        if guard > 400:
+            raise ConvergenceError("continuation did not reach the load", {"P": st.P})
+        P_next = P_target if st.P * ratio >= P_target else st.P * ratio
+        try:
+            trial = _predict(st, prev, P_next, profile)
+            new, sys_ = converge(trial, profile, A, None)
+        except StepFailed as exc:
+            merged = _try_merge(st, P_next, profile, A)
+            if merged is not None:
+                prev, (st, sys_) = (), merged
+                if P_next == P_target:
+                    return st, sys_, prev
+                continue
+            ratio = np.sqrt(P_next / st.P)  # half the failed step (in log P), not of ratio
+            if ratio < 1 + 1e-7:
+                raise ConvergenceError(f"continuation stalled at P={st.P:.6g}: {exc}",
+                                       {"P_reached": st.P, "P_target": P_target,
+                                        "zones": st.layout.zones()}) from exc
+            continue
+        prev, st = (st, *prev[:PREDICTOR_POINTS - 2]), new
+        if P_next == P_target:
+            return st, sys_, prev
+        ratio = min(ratio * ratio, 16.0)
+
+
+PREDICTOR_POINTS = 8  # states of one topology the predictor may extrapolate through
+
+
+def _predict(st: State, prev: tuple[State, ...], P_next: float, profile: Profile) -> State:
+    """Edges at P_next extrapolated in log P through the current state and up to
+    ``PREDICTOR_POINTS - 1`` earlier states of the same topology, with the degree chosen where
+    the extrapolation's last correction is smallest (:func:`_extrapolate`); a square-root
+    widening of every zone when there is no history."""
+    edges = st.layout.edges.copy()
+    free = ~st.layout.pinned
+    same = [q for q in prev if q.P != st.P and _same_topology(q.layout, st.layout)]
+    if same:
+        pts = [st, *same[:PREDICTOR_POINTS - 1]]
+        u = [math.log(q.P) for q in pts]
+        if len(set(u)) < len(u):
+            pts, u = pts[:2], u[:2]
+        guess = _extrapolate(u, [q.layout.edges for q in pts], math.log(P_next))
+    else:
+        z = edges.reshape(-1, 2)
+        mid = z.mean(1, keepdims=True)
+        guess = (mid + (z - mid) * np.sqrt(P_next / st.P)).ravel()
+    edges[free] = guess[free]
+    trial = Layout(edges, st.layout.pinned)
+    beta = st.beta * (P_next / st.P) if st.beta.size else st.beta
+    new = State(trial, beta, st.theta, P_next, st.xc, st.ell, st.jac)
+    if np.any(np.diff(edges) <= 0) or not feasible(new, profile):
+        new = State(st.layout, beta, st.theta, P_next, st.xc, st.ell, st.jac)
+    return new
+
+
+def _same_topology(a: Layout, b: Layout) -> bool:
+    return a.pinned is b.pinned or a.pinned.tobytes() == b.pinned.tobytes()
+
+
+def _extrapolate(u: list[float], y: list[np.ndarray], at: float) -> np.ndarray:
+    """Polynomial extrapolation to ``at`` through ``(u_j, y_j)`` (nearest first) by Neville's
+    table: the estimates of degree 0, 1, ... use the nearest points first, and the one whose
+    correction over the degree below is smallest is returned (beyond it the corrections grow:
+    the path's own singularities or the states' rounding take over)."""
+    row = np.array(y, float)  # row i of level d: the estimate through points i .. i + d
+    x = at - np.asarray(u, float)[:, None]
+    best, best_change = row[0], math.inf
+    for d in range(1, len(u)):
+        row = (x[d:] * row[:-1] - x[:-d] * row[1:]) / (x[d:] - x[:-d])
+        change = float(np.max(np.abs(row[0] - best)))
+        if change >= best_change and d > 1:
+            break
+        best, best_change = row[0], change
+    return best
+
+
+def converge(st: State, profile: Profile, A: float, M: float | None) -> tuple[State, System]:
+    history: list[Event] = []
+    starts: set[bytes] = set()
+    for _ in range(MAX_TOPOLOGY_CHANGES):
+        st = _recentre(st)
+        _check_cycle(st.layout, starts, history)
+        try:
+            st, F = newton(st, Mode(st.P, M), profile, A)
+        except NewtonFailed as exc:
+            pinned = pin_nearest(st, profile, A, PIN_DISTANCE * st.layout.edge_widths())
+            if pinned is None:
+                st = shrunk_new_zone(st, history, A)
+                if st is None:
+                    raise StepFailed(str(exc)) from exc
+                history.append(Event("reseed", history[-1].where))
+                continue
+            history.append(Event("pin", pinned[1]))
+            st = pinned[0]
+            continue
+        landed = pin_nearest(st, profile, A, np.full(st.layout.edges.size, 1e-10 * st.ell)) \
+            or pin_nearest(st, profile, A, np.full(st.layout.edges.size, VERTICAL_LANDING
+                                                   * st.ell), profile.vertical_ends)
+        if landed is not None:  # a free edge converged onto a corner: re-solve it as singular
+            history.append(Event("pin", landed[1]))
+            st = landed[0]
+            continue
+        sys_ = st.system or System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
+        ev = find_event(st, sys_, profile, A)
+        if ev is None:
+            st.F = F
+            return st, sys_
+        history.append(ev)
+        st = apply_event(st, ev, sys_, profile)
+        st.beta = beta_for(st, A, st.P)
+    raise StepFailed(f"topology did not settle: {history}")
+
+
+def _check_cycle(layout: Layout, starts: set[bytes], history: list[Event]) -> None:
+    """Fail the step at once when a Newton solve would restart from a layout (edges and
+    singular flags) already tried in this step: the solve and the events after it are
+    deterministic, so the topology would only cycle until MAX_TOPOLOGY_CHANGES (e.g. pin at a
+    ridge, negative pressure, release, Newton fails, pin at the same ridge again)."""
+    key = layout.edges.tobytes() + layout.pinned.tobytes()
+    if key in starts:
+        raise StepFailed(f"topology cycles: {history}")
+    starts.add(key)
+
+
+def _recentre(st: State) -> State:
+    e = st.layout.edges
+    xc = float(0.5 * (e[0] + e[-1]))
+    ell = max(float(e[-1] - e[0]), 1e-300)
+    beta = _shift_poly(st.beta, xc - st.xc)
+    return State(st.layout, beta, st.theta, st.P, xc, ell, st.jac)
+
+
+def _shift_poly(beta: np.ndarray, d: float) -> np.ndarray:
+    """Coefficients of T in the coordinate shifted by d: T(x) = sum b_k (x - xc_old)^k."""
+    if beta.size <= 1 or d == 0.0:
+        return beta.copy()
+    p = np.polynomial.Polynomial(beta)
+    return np.polynomial.Polynomial(p(np.polynomial.Polynomial([d, 1.0])).coef).coef[: beta.size]
+
+
+# on a failed step, try merging two zones whose gap is below this fraction of their widths
+MERGE_GAP = 0.5
+
+
+def _try_merge(st: State, P_next: float, profile: Profile, A: float):
+    """Merge the narrowest gap if it is closing and the step beyond it fails."""
+    e = st.layout.edges
+    if st.layout.n < 2:
+        return None
+    gaps = e[2::2] - e[1:-1:2]
+    widths = np.minimum(e[1:-1:2] - e[0:-2:2], e[3::2] - e[2::2])
+    m = int(np.argmin(gaps / widths))
+    if gaps[m] > MERGE_GAP * widths[m]:
+        return None
+    keep = np.ones(e.size, bool)
+    keep[[2 * m + 1, 2 * m + 2]] = False
+    layout = Layout(e[keep], st.layout.pinned[keep])
+    trial = fresh_state(layout, st.theta, P_next)
+    trial.beta = beta_for(trial, A, P_next)
+    try:
+        return converge(trial, profile, A, None)
+    except StepFailed:
+        return None

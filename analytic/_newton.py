@@ -1,0 +1,299 @@
+"""Newton's method on the equations of one contact topology (paper Sections 2-4).
+
+A topology is a :class:`analytic._sie.Layout`: the zones' edges and which of them are singular.
+The unknowns (:class:`State`) are its free edges, the free coefficients ``beta`` of the
+polynomial T of the inversion formula and, in applied-moment mode, the rigid rotation theta;
+:class:`Mode` says which of them are solved for.  The residual rows are the consistency
+conditions (Eq. 12/14), equilibrium, the rigid interconnections (Eq. 17) and the moment, each
+scaled; :func:`newton` solves them by damped Newton with a finite-difference Jacobian evaluated
+in one batch, reused between continuation steps (Broyden updates), and accepts a residual at
+the rounding floor of the edges' positions.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from analytic._sie import Batch, Layout, System
+from analytic.profiles import Profile
+from analytic.selfcheck import h0_steps
+
+NEWTON_TOL = 1e-13          # scaled residual; edges then agree to ~1e-12 relative
+NEWTON_MAXIT = 40
+STEP_TOL = 1e-12            # ... and the next Newton step moves no unknown (edges / span) more
+POLISH_STEPS = 3            # steps allowed beyond NEWTON_TOL to meet STEP_TOL
+FLOOR_TOL = 1e-10          # accepted when rounding stalls Newton (zones ~1e-6 of the span)
+ULP_FLOOR = 64.0            # ... or below the residual change of this many ulps of the edges
+REFRESH_RATIO = 0.1         # a reused Jacobian gaining less than this per step is refreshed
+FD_STEP = 1e-7              # relative finite-difference step for the Jacobian
+FD_ULPS = 64.0              # ... and the smallest step of an edge in units in the last place
+
+
+@dataclass(frozen=True)
+class Mode:
+    """Which quantities are unknown: edges (free ones), beta, theta; driver = fixed free edge."""
+
+    P: float | None           # None: P is an output (driver mode)
+    M: float | None           # None: theta fixed
+    driver: int | None = None
+
+
+@dataclass
+class State:
+    """One topology's unknowns at load ``P``: the edges (``layout``), the coefficients ``beta``
+    of T and the rotation ``theta``; ``xc``, ``ell``: centre and length of the edge span (the
+    scales of the packed unknowns); ``jac``: the last Jacobian (reused by the next solve);
+    ``checks``: the admissibility figures of the accepted state."""
+
+    layout: Layout
+    beta: np.ndarray
+    theta: float
+    P: float
+    xc: float
+    ell: float
+    jac: np.ndarray | None = None
+    checks: dict | None = None
+    F: np.ndarray | None = None  # scaled residuals of the last Newton solve of this state
+    system: System | None = None  # the System its residual was evaluated with (reused)
+
+
+def fresh_state(layout: Layout, theta: float, P: float) -> State:
+    """An unsolved state on ``layout``: beta zero, scales from the edge span."""
+    e = layout.edges
+    ell = max(float(e[-1] - e[0]), 1e-300)
+    return State(layout, np.zeros(max(layout.n - layout.e, 0)), theta, P,
+                 float(0.5 * (e[0] + e[-1])), ell)
+
+
+def beta_for(st: State, A: float, P: float) -> np.ndarray:
+    """``st.beta`` with its last coefficient ``-A P`` (the one the total load fixes)."""
+    beta = st.beta.copy()
+    if beta.size:
+        beta[-1] = -A * P
+    return beta
+
+
+def _free_edges(layout: Layout, mode: Mode) -> np.ndarray:
+    free = layout.free
+    return free[free != mode.driver] if mode.driver is not None else free
+
+
+def _n_beta_free(layout: Layout, mode: Mode) -> int:
+    nb = max(layout.n - layout.e, 0)
+    return nb if mode.P is None else max(nb - 1, 0)
+
+
+def _pack(st: State, mode: Mode) -> np.ndarray:
+    free = _free_edges(st.layout, mode)
+    z = [(st.layout.edges[free] - st.xc) / st.ell, st.beta[: _n_beta_free(st.layout, mode)]]
+    if mode.M is not None:
+        z.append(np.array([st.theta]))
+    return np.concatenate(z)
+
+
+def _unpack(z: np.ndarray, st: State, mode: Mode, A: float) -> State:
+    free = _free_edges(st.layout, mode)
+    edges = st.layout.edges.copy()
+    edges[free] = st.xc + st.ell * z[: free.size]
+    nbf = _n_beta_free(st.layout, mode)
+    beta = st.beta.copy()
+    beta[:nbf] = z[free.size: free.size + nbf]
+    nb = max(st.layout.n - st.layout.e, 0)
+    if mode.P is not None and nb > 0:
+        beta[nb - 1] = -A * mode.P
+    theta = float(z[-1]) if mode.M is not None else st.theta
+    return State(st.layout.with_edges(edges), beta, theta, st.P, st.xc, st.ell, st.jac)
+
+
+def residual(st: State, mode: Mode, profile: Profile, A: float) -> tuple[np.ndarray, System]:
+    """The scaled residual rows of ``st`` (:func:`_rows`) and the System that gave them."""
+    sys_ = System.build(st.layout, profile, A, st.theta, st.xc, st.beta)
+    return _rows(sys_.batch, st, mode)[0], sys_
+
+
+def _rows(batch: Batch, st: State, mode: Mode) -> np.ndarray:
+    """Scaled residuals ``(K, equations)`` of every member of ``batch`` (``st`` gives the load
+    and length scales): consistency (Eq. 12/14), equilibrium, interconnection (Eq. 17), moment."""
+    lay, A = batch.layout, batch.A
+    n, e = lay.n, lay.e
+    P_ref = mode.P if mode.P is not None else max(abs(st.P), 1e-300)
+    slope = np.abs(batch.sq.dh).sum(axis=1) / batch.sq.dh.shape[1]
+    g_scale = A * P_ref + slope * st.ell + 1e-300
+    rows = []
+    if e > n:
+        mu, norm = batch.consistency()
+        rows.append(mu / (norm + 1e-300))
+    if mode.P is not None and e >= n:
+        rows.append(batch.load()[:, None] / mode.P - 1.0)
+    rows.append(batch.interconnections() / g_scale[:, None])
+    if mode.M is not None:
+        rows.append((batch.load_and_moment()[1][:, None] - mode.M) / (P_ref * st.ell))
+    return np.concatenate(rows, axis=1)
+
+
+def feasible(st: State, profile: Profile) -> bool:
+    """Edges finite, strictly increasing, inside the support, free edges where h0 is finite,
+    and no zone spanning a ridge or a corner where h0 steps (a sharp punch beside a cylinder:
+    a released corner edge crossed onto the cylinder's flank, 13 higher; scalar checks: this
+    runs at every trial point)."""
+    e = st.layout.edges.tolist()
+    tol = 1e-14 * st.ell
+    if not all(math.isfinite(v) for v in e) or \
+            any(b - a <= tol for a, b in zip(e, e[1:], strict=False)):
+        return False
+    lo, hi = profile.support
+    if e[0] < lo - tol or e[-1] > hi + tol:
+        return False
+    if profile.pieces_have_gaps:
+        inner = profile.h0(st.layout.edges[~st.layout.pinned])
+        if not np.all(np.isfinite(inner)):
+            return False
+    inside = [q for q in (*profile.ridges, *profile.corners)
+              if any(a < q < b for a, b in zip(e[::2], e[1::2], strict=True))]
+    return not any(q in profile.ridges or h0_steps(profile, q) for q in inside)
+
+
+class NewtonFailed(Exception):
+    def __init__(self, msg: str, diag: dict) -> None:
+        super().__init__(msg)
+        self.diag = diag
+
+
+def newton(st: State, mode: Mode, profile: Profile, A: float) -> tuple[State, np.ndarray]:
+    """Damped Newton; a Jacobian carried over from the previous continuation step is reused
+    (chord iterations) until the contraction slows, then refreshed by finite differences."""
+    z = _pack(st, mode)
+    F, st.system = residual(st, mode, profile, A)
+    if z.size != F.size:
+        raise AssertionError(f"unknowns {z.size} != equations {F.size}")
+    if z.size == 0:
+        return st, F
+    norm = float(np.max(np.abs(F)))
+    if not np.isfinite(norm):
+        raise NewtonFailed("non-finite residual at the start", {"residual": norm})
+    J = st.jac if st.jac is not None and st.jac.shape == (F.size, z.size) else None
+    fresh, polish, floor = False, 0, FLOOR_TOL
+    for it in range(NEWTON_MAXIT):
+        if norm < NEWTON_TOL:
+            dz = _polish_step(J, F) if polish < POLISH_STEPS else None
+            if dz is None:
+                break
+            polish += 1
+        else:
+            if J is None:
+                J, fresh = _jacobian(z, F, st, mode, profile, A), True
+                floor = _rounding_floor(J, st, mode)
+            try:
+                dz = np.linalg.solve(J, -F)
+            except np.linalg.LinAlgError as exc:
+                if not fresh:
+                    J = None
+                    continue
+                raise NewtonFailed("singular Jacobian",
+                                   {"residual": norm, "iteration": it}) from exc
+        trial, zt, Ft, nt = _line_search(st, z, dz, norm, mode, profile, A)
+        if polish and not nt < NEWTON_TOL:
+            break  # the polishing step would leave the converged set: keep the state
+        if not polish and nt > REFRESH_RATIO * norm and not fresh:
+            J = None  # stale Jacobian: refresh and retry from the same point
+            continue
+        if not polish and nt > 0.5 * norm and np.all(np.abs(F) < floor):
+            break  # rounding floor reached with a fresh Jacobian: accept
+        if nt >= norm and not np.all(np.abs(Ft) < floor):
+            raise NewtonFailed("no descent", {"residual": norm, "iteration": it})
+        step = zt - z
+        if step @ step > 0:  # Broyden's rank-one update keeps the reused Jacobian current
+            J = J + np.outer(Ft - F - J @ step, step) / (step @ step)
+        st, z, F, fresh = trial, zt, Ft, False
+        if np.max(np.abs(dz)) < 1e-15 and np.all(np.abs(Ft) < floor):
+            norm = nt
+            break
+        norm = nt
+    else:
+        if not np.all(np.abs(F) < floor):
+            raise NewtonFailed("too many iterations", {"residual": norm,
+                                                       "iteration": NEWTON_MAXIT})
+    st.jac = J
+    return st, F
+
+
+def _rounding_floor(J: np.ndarray, st: State, mode: Mode) -> np.ndarray:
+    """Residual level of each equation below which Newton may stop: FLOOR_TOL, or the change of
+    that residual when every free edge moves by ULP_FLOOR units in the last place of its
+    absolute position, if larger.  Edges are stored as x, so an edge a distance d past a kink
+    (a rounded corner's start at a small load, d ~ P^(2/3)) carries a relative load error
+    ~ eps |x| / d."""
+    free = _free_edges(st.layout, mode)
+    ulp = np.zeros(J.shape[1])
+    ulp[: free.size] = np.spacing(np.abs(st.layout.edges[free])) / st.ell
+    floor = np.maximum(FLOOR_TOL, ULP_FLOOR * (np.abs(J) @ ulp))
+    # not the interconnections: scaled by A P + |h'| span, not by the gaps' own size A P, they
+    # would accept a wrong load split between narrow zones far apart (double wedge, P = 1e-8)
+    lay = st.layout
+    first = max(lay.e - lay.n, 0) + int(mode.P is not None and lay.e >= lay.n)
+    floor[first: first + lay.n - 1] = FLOOR_TOL
+    return floor
+
+
+def _polish_step(J: np.ndarray | None, F: np.ndarray) -> np.ndarray | None:
+    """The Newton step from a state that meets NEWTON_TOL, when it would still move an unknown
+    by more than STEP_TOL (an ill-conditioned system, e.g. zones about to merge); else None."""
+    if J is None:
+        return None
+    try:
+        dz = np.linalg.solve(J, -F)
+    except np.linalg.LinAlgError:
+        return None
+    return dz if np.max(np.abs(dz)) > STEP_TOL else None
+
+
+def _fd_steps(z: np.ndarray, st: State, mode: Mode, profile: Profile) -> np.ndarray:
+    """Finite-difference steps: an edge moves by FD_STEP times the width of its own zone (zones
+    may be many orders narrower than the span) or its distance to the nearest kink, if smaller
+    (an edge just past a rounded corner's start at a small load), other unknowns relative to
+    their size."""
+    h = FD_STEP * np.maximum(1.0, np.abs(z))
+    free = _free_edges(st.layout, mode)
+    edges = st.layout.edges[free]
+    smooth = np.minimum(st.layout.edge_widths()[free], profile.feature_distance(edges))
+    # but by at least FD_ULPS units in the last place of x (the edges are stored as x): a zone
+    # 4e-9 wide at x = 1 (a wedge apex at a small load) would step by 2 ulps
+    h[: free.size] = np.maximum(FD_STEP * smooth, FD_ULPS * np.spacing(np.abs(edges))) / st.ell
+    return h
+
+
+def _jacobian(z, F, st, mode, profile, A) -> np.ndarray:
+    """Forward differences, all columns in one batch evaluation with the discretisation frozen
+    on the current layout (the base point is evaluated in the same batch)."""
+    steps = _fd_steps(z, st, mode, profile)
+    states = [st]
+    for j in range(z.size):
+        zp = z.copy()
+        zp[j] += steps[j]
+        trial = _unpack(zp, st, mode, A)
+        if not feasible(trial, profile):
+            steps[j] = -steps[j]
+            zp[j] = z[j] + steps[j]
+            trial = _unpack(zp, st, mode, A)
+        states.append(trial)
+    batch = Batch.build(st.layout, profile, A, st.xc, np.array([q.layout.edges for q in states]),
+                        np.array([q.theta for q in states]), np.array([q.beta for q in states]))
+    R = _rows(batch, st, mode)
+    return ((R[1:] - R[0]) / steps[:, None]).T
+
+
+def _line_search(st, z, dz, norm, mode, profile, A):
+    lam = 1.0
+    for _ in range(30):
+        zt = z + lam * dz
+        trial = _unpack(zt, st, mode, A)
+        if feasible(trial, profile):
+            Ft, trial.system = residual(trial, mode, profile, A)
+            nt = float(np.max(np.abs(Ft)))
+            if np.isfinite(nt) and (nt < (1 - 1e-4 * lam) * norm or nt < NEWTON_TOL):
+                return trial, zt, Ft, nt
+        lam *= 0.5
+    return st, z, residual(st, mode, profile, A)[0], norm

@@ -1,0 +1,186 @@
+"""Topology events of the normal problem: zones appear, grow, merge, split, shrink; singular
+edges pin at corners and ridges or release.
+
+An inadmissible state (negative pressure or negative gap, found by
+:mod:`analytic._admissibility`) is classified into an :class:`Event`, and
+:func:`apply_event` gives the new, unsolved layout.  A new zone starts on the overlap
+``{g < 0}`` (the free-interpenetration guess of the paper's Section 6).  A free edge that
+converges onto a corner, or whose Newton solve fails near one, pins there (:func:`pin_nearest`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from analytic._gap import deformed_gap
+from analytic._newton import State, beta_for, fresh_state
+from analytic._sie import Layout, System
+from analytic.profiles import Profile
+
+
+@dataclass(frozen=True)
+class Event:
+    """A change of topology: ``kind`` at x = ``where``, of edge or zone ``index``;
+    ``interval``: the overlap ``{g < 0}`` a new zone starts on."""
+
+    kind: str       # "add", "merge", "grow", "split", "shrink", "release", "pin", "reseed"
+    where: float
+    index: int = -1
+    interval: tuple[float, float] | None = None
+
+
+def pressure_event(st: State, xi: np.ndarray, p: np.ndarray) -> Event:
+    """Classify the most negative pressure ``p`` (at the points ``xi``): near an edge, a pinned
+    edge releases and a free edge moves inwards; elsewhere the zone splits there."""
+    x = float(xi[int(np.argmin(p))])
+    e = st.layout.edges
+    k = int(np.searchsorted(e, x) // 2)
+    a, b = e[2 * k], e[2 * k + 1]
+    near = min(x - a, b - x) < 0.05 * (b - a)
+    i_edge = 2 * k if x - a < b - x else 2 * k + 1
+    if near and st.layout.pinned[i_edge]:
+        return Event("release", float(e[i_edge]), i_edge)
+    if near:
+        return Event("shrink", x, i_edge)
+    return Event("split", x, k)
+
+
+def gap_event(st: State, x: float, sys_: System, profile: Profile) -> Event:
+    """Classify a negative deformed gap at x by the extent of ``{g < 0}`` around it: touching
+    both neighbouring edges -> merge; one edge -> that edge grows to the end of the overlap;
+    neither -> a new zone on the overlap interval (the Section 6 guess)."""
+    lo, hi = _negative_gap_interval(sys_, x, profile)
+    e = st.layout.edges
+    k = int(np.searchsorted(e, x))
+    left = k - 1 if k > 0 else None        # index of the edge bounding the gap on the left
+    right = k if k < e.size else None
+    at_left = left is not None and lo <= e[left]
+    at_right = right is not None and hi >= e[right]
+    if at_left and at_right:
+        return Event("merge", x, k // 2 - 1)
+    if at_left:
+        return Event("grow", hi, left)
+    if at_right:
+        return Event("grow", lo, right)
+    return Event("add", x, interval=(lo, hi))
+
+
+def apply_event(st: State, ev: Event, sys_: System, profile: Profile) -> State:
+    edges = list(st.layout.edges)
+    pinned = list(st.layout.pinned)
+    if ev.kind == "merge":
+        m = ev.index
+        del edges[2 * m + 1: 2 * m + 3]
+        del pinned[2 * m + 1: 2 * m + 3]
+    elif ev.kind == "grow":
+        edges[ev.index] = ev.where
+    elif ev.kind == "add":
+        lo, hi = ev.interval
+        k = int(np.searchsorted(edges, ev.where))
+        edges[k:k] = [lo, hi]
+        pinned[k:k] = [lo in profile.pin_points, hi in profile.pin_points]
+    elif ev.kind == "split":
+        k = ev.index
+        a, b = edges[2 * k], edges[2 * k + 1]
+        w = 0.02 * (b - a)
+        edges[2 * k + 1: 2 * k + 1] = [ev.where - w, ev.where + w]
+        pinned[2 * k + 1: 2 * k + 1] = [False, False]
+    elif ev.kind == "release":
+        i = ev.index
+        a, b = edges[i - (i % 2)], edges[i - (i % 2) + 1]
+        edges[i] += (0.02 if i % 2 == 0 else -0.02) * (b - a)
+        pinned[i] = False
+    elif ev.kind == "shrink":
+        i = ev.index
+        a, b = edges[i - (i % 2)], edges[i - (i % 2) + 1]
+        edges[i] += (0.05 if i % 2 == 0 else -0.05) * (b - a)
+    layout = Layout(np.asarray(edges, float), np.asarray(pinned, bool))
+    new = fresh_state(layout, st.theta, st.P)
+    return new
+
+
+def _negative_gap_interval(sys_: System, x: float, profile: Profile) -> tuple[float, float]:
+    """The overlap ``{g < 0}`` around x: the free-interpenetration guess of the new zone."""
+    def g(t: float) -> float:
+        return float(deformed_gap(sys_, np.array([t]))[0])
+
+    e = sys_.layout.edges
+    k = int(np.searchsorted(e, x))
+    left_wall = e[k - 1] if k > 0 else profile.support[0]
+    right_wall = e[k] if k < e.size else profile.support[1]
+    ridges = np.asarray(profile.ridges)  # a zone cannot span a ridge: stop there
+    left_wall = max([left_wall, *ridges[ridges < x]])
+    right_wall = min([right_wall, *ridges[ridges > x]])
+    span = max(e[-1] - e[0], profile.scale)
+    lo = _walk(g, x, max(left_wall, x - 2 * span), profile)
+    hi = _walk(g, x, min(right_wall, x + 2 * span), profile)
+    if hi - lo < 1e-9 * span:
+        lo, hi = x - 1e-6 * span, x + 1e-6 * span
+    return lo, hi
+
+
+def _walk(g, x: float, wall: float, profile: Profile) -> float:
+    ts = np.linspace(x, wall, 65)[1:]
+    prev = x
+    for t in ts:
+        gt = g(t) if np.isfinite(profile.h0(np.array([t]))[0]) else np.inf
+        if gt >= 0:
+            if not np.isfinite(gt):
+                corner = [c for c in profile.pin_points if min(prev, t) <= c <= max(prev, t)]
+                return corner[0] if corner else prev
+            return brentq(g, prev, t, xtol=1e-14 * max(1.0, abs(t)))
+        prev = t
+    return prev
+
+
+PIN_DISTANCE = 0.05  # a free edge this close to a corner (fraction of its zone) may pin there
+VERTICAL_LANDING = 3e-9
+"""A free edge converged this close (x span) to a vertical end pins there: its load grows only
+like -ln d, so below ~1e-9 span it is rounding-limited (the face +-1, radius 0.5 punch at d =
+5e-10: int p off the zone load by 2e-8 P) while the pinned state differs only within d."""
+
+
+def pin_nearest(st: State, profile: Profile, A: float, limits: np.ndarray,
+                points: tuple[float, ...] | None = None) -> tuple[State, float] | None:
+    """The free edge nearest a pin point (corner or ridge; or one of ``points``), if within its
+    limit, becomes singular there: the new (unsolved) state and the pin position, or None."""
+    e, pinned = st.layout.edges.copy(), st.layout.pinned.copy()
+    best = None
+    for i in np.flatnonzero(~pinned):
+        for c in profile.pin_points if points is None else points:
+            d = abs(e[i] - c)
+            if d <= limits[i] and (best is None or d < best[0]):
+                best = (d, i, c)
+    if best is None:
+        return None
+    _, i, c = best
+    e[i], pinned[i] = c, True
+    new = fresh_state(Layout(e, pinned), st.theta, st.P)
+    new.beta = beta_for(new, A, st.P)
+    return new, float(c)
+
+
+RESEED_FRACTION = 0.25  # a new zone Newton failed from restarts at this part of its seed
+
+
+def shrunk_new_zone(st: State, history: list[Event], A: float) -> State | None:
+    """After a failed Newton solve from a zone just added on its overlap interval, the same
+    state with that zone shrunk towards the deepest overlap to RESEED_FRACTION of the interval
+    (just after a zone's birth the zone is several times narrower than its overlap: a birth load
+    of two cylinders failed with "continuation stalled" while loads 1e-14 off solved; a zone
+    born at a double wedge's apex, audit seed 178); else None."""
+    if not history or history[-1].kind != "add" or history[-1].interval is None:
+        return None
+    lo, hi = history[-1].interval
+    e = st.layout.edges.copy()
+    k = np.flatnonzero((e[:-1] == lo) & (e[1:] == hi))
+    if not k.size:
+        return None
+    c = history[-1].where  # the deepest overlap (a wedge's apex: not the interval's middle)
+    e[k[0]], e[k[0] + 1] = c - RESEED_FRACTION * (c - lo), c + RESEED_FRACTION * (hi - c)
+    new = fresh_state(Layout(e, st.layout.pinned), st.theta, st.P)
+    new.beta = beta_for(new, A, st.P)
+    return new
