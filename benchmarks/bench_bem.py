@@ -17,7 +17,7 @@ from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from compare import bem  # noqa: E402
+from compare import bem, bem_tangential  # noqa: E402
 
 A, R, P, MU = 1.0, 1.0, 0.5, 0.3
 A_HERTZ = np.sqrt(2 * A * P * R / np.pi)
@@ -45,15 +45,15 @@ def two_cylinders(x: np.ndarray) -> np.ndarray:
 def row(n: int) -> tuple[float, ...]:
     window = (-1.5 * A_HERTZ, 1.5 * A_HERTZ)
     normal = bem.solve_normal_bem(hertz, window, n, P, A)
-    stage2 = bem.solve_tangential_bem(normal, MU, 0.5 * MU * P)
+    stage2 = bem_tangential.solve_tangential_bem(normal, MU, 0.5 * MU * P)
     edge_err = abs(normal.zones[0][1] - A_HERTZ) / normal.dx
     return (
         best_time(lambda: bem.solve_normal_bem(hertz, window, n, P, A)),
         best_time(lambda: bem.solve_normal_bem(two_cylinders, (-2.5, 2.5), n, 0.2, A)),
         best_time(lambda: bem.solve_normal_bem(two_cylinders, (-2.5, 2.5), n, 0.3, A,
                                                M=-0.05)),
-        best_time(lambda: bem.solve_tangential_bem(normal, MU, 0.5 * MU * P)),
-        best_time(lambda: bem.solve_tangential_bem(normal, MU, -0.5 * MU * P,
+        best_time(lambda: bem_tangential.solve_tangential_bem(normal, MU, 0.5 * MU * P)),
+        best_time(lambda: bem_tangential.solve_tangential_bem(normal, MU, -0.5 * MU * P,
                                                    q_start=stage2.q, Q_start=0.5 * MU * P)),
         edge_err,
     )

@@ -251,7 +251,7 @@ def parser() -> argparse.ArgumentParser:
     sp.add_argument("--levels", type=int, nargs="+", default=[-1, 0, 1],
                     help="levels of the convergence studies")
     sp.add_argument("--no-fig5", action="store_true", help="skip the paper Fig. 5 study page")
-    from compare.sweep import add_sweep_parser  # `sweep` and `report --sweep DIR`
+    from compare.sweep.cli import add_sweep_parser  # `sweep` and `report --sweep DIR`
 
     add_sweep_parser(sub)
     p.description = f"Command line multicontact: {', '.join(sub.choices)}."

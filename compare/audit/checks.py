@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from analytic import NormalSolution, StickSolution
-from compare import bem
+from compare import bem, bem_tangential
 from compare.audit import quadrature as qd
 
 # --------------------------------------------------------------------- quadrature tolerances
@@ -418,11 +418,11 @@ def _pair(pair: BemPair) -> tuple[bem.BemNormal, bem.BemNormal]:
     return pair.coarse, pair.fine
 
 
-def _bem_stick(st: StickSolution, normal: bem.BemNormal) -> bem.BemShear:
+def _bem_stick(st: StickSolution, normal: bem.BemNormal) -> bem_tangential.BemShear:
     if st.Q0 is None:
-        return bem.solve_tangential_bem(normal, st.mu, st.Q)
-    first = bem.solve_tangential_bem(normal, st.mu, st.Q0)
-    return bem.solve_tangential_bem(normal, st.mu, st.Q, q_start=first.q, Q_start=st.Q0)
+        return bem_tangential.solve_tangential_bem(normal, st.mu, st.Q)
+    first = bem_tangential.solve_tangential_bem(normal, st.mu, st.Q0)
+    return bem_tangential.solve_tangential_bem(normal, st.mu, st.Q, q_start=first.q, Q_start=st.Q0)
 
 
 def _stick_edge_finding(i: int, an, sc, sf, dx: float) -> Finding:

@@ -31,7 +31,7 @@ import analytic
 from compare import bem
 from compare.audit import checks
 from compare.audit.cases import AuditCase, make_case
-from compare.sweep import write_atomic
+from compare.fileio import write_atomic
 
 CASE_TIME_LIMIT = 120.0
 """CPU seconds per case (solve and checks) before it counts as a ``timeout``: CPU time, so that

@@ -8,6 +8,9 @@ import tomllib
 import pytest
 
 from compare import sweep as sw
+from compare.sweep.cli import EXIT_BAD_INPUT
+from compare.sweep.store import RESULTS_FILE, ResultStore
+from compare.sweep.tasks import jsonable
 
 BASE = """
 [base]
@@ -116,11 +119,11 @@ def test_bad_base():
 def test_cli_exit_2_and_one_line(tmp_path, capsys, body):
     f = tmp_path / "s.toml"
     f.write_text('task = "analytic"\n' + body + "\n" + BASE)
-    assert sw.main(["sweep", str(f), "-o", str(tmp_path / "out")]) == sw.EXIT_BAD_INPUT
+    assert sw.main(["sweep", str(f), "-o", str(tmp_path / "out")]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err.strip()
     assert err.startswith("multicontact sweep: error: s.toml: ")
     assert len(err.splitlines()) == 1
-    assert not (tmp_path / "out" / sw.RESULTS_FILE).exists()
+    assert not (tmp_path / "out" / RESULTS_FILE).exists()
 
 
 def test_library_study_expands():
@@ -140,33 +143,33 @@ def rec(key: str, status: str, tag: int) -> dict:
 
 
 def test_store_dedup_and_torn_tail(tmp_path):
-    with sw.ResultStore(tmp_path) as st:
+    with ResultStore(tmp_path) as st:
         st.append(rec("a", "failed", 1))
         st.append(rec("a", "ok", 2))
         st.append(rec("a", "failed", 3))  # a late failed duplicate must not hide the ok one
         st.append(rec("b", "ok", 4))
         st.append(rec("b", "ok", 5))
-    with open(tmp_path / sw.RESULTS_FILE, "a") as fh:
+    with open(tmp_path / RESULTS_FILE, "a") as fh:
         fh.write('{"key": "c", "status": "ok"')  # writer killed mid-line
     got = sw.read_records(tmp_path)
     assert {k: r["tag"] for k, r in got.items()} == {"a": 2, "b": 5}
-    with sw.ResultStore(tmp_path) as st:  # reopening cuts the torn line
+    with ResultStore(tmp_path) as st:  # reopening cuts the torn line
         st.append(rec("c", "ok", 6))
-    lines = (tmp_path / sw.RESULTS_FILE).read_text().splitlines()
+    lines = (tmp_path / RESULTS_FILE).read_text().splitlines()
     assert len(lines) == 6 and all(json.loads(x) for x in lines)
     assert sw.read_records(tmp_path)["c"]["tag"] == 6
 
 
 def test_store_is_exclusive(tmp_path):
-    with sw.ResultStore(tmp_path), pytest.raises(sw.SweepError, match="in use"):
-        with sw.ResultStore(tmp_path):
+    with ResultStore(tmp_path), pytest.raises(sw.SweepError, match="in use"):
+        with ResultStore(tmp_path):
             pass
 
 
 def test_records_are_plain_json():
     import numpy as np
 
-    out = sw._jsonable({"a": np.float64(1.5), "b": float("nan"), "c": (np.int64(2), np.inf),
+    out = jsonable({"a": np.float64(1.5), "b": float("nan"), "c": (np.int64(2), np.inf),
                         "d": np.bool_(True)})
     assert out == {"a": 1.5, "b": None, "c": [2, None], "d": True}
     json.dumps(out, allow_nan=False)

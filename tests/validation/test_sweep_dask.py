@@ -20,6 +20,7 @@ import pytest
 pytest.importorskip("distributed")
 
 from compare import sweep as sw  # noqa: E402
+from compare.sweep.store import RESULTS_FILE  # noqa: E402
 
 BASE = """
 [base]
@@ -98,7 +99,7 @@ def reference(tmp_path_factory):
 
 
 def lines(d: Path) -> list[dict]:
-    return [json.loads(x) for x in (d / sw.RESULTS_FILE).read_text().splitlines()]
+    return [json.loads(x) for x in (d / RESULTS_FILE).read_text().splitlines()]
 
 
 def assert_same(got: dict, ref: dict) -> None:
@@ -136,7 +137,7 @@ def test_killed_worker_loses_and_duplicates_nothing(tmp_path, reference):
         def kill_when_running():
             t0 = time.monotonic()
             while time.monotonic() - t0 < START_S:
-                f = out / sw.RESULTS_FILE
+                f = out / RESULTS_FILE
                 if f.exists() and len(f.read_text().splitlines()) >= 3:
                     victim.send_signal(signal.SIGKILL)
                     killed.set()

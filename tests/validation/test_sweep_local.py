@@ -16,7 +16,9 @@ import pytest
 
 import analytic
 from compare import sweep as sw
-from compare.sweep_report import write_sweep_report
+from compare.sweep.cli import EXIT_FAILED_CASES, EXIT_SIGNAL
+from compare.sweep.report import write_sweep_report
+from compare.sweep.store import RESULTS_FILE
 
 BASE = """
 [base]
@@ -42,7 +44,7 @@ def overlap_sweep(path: Path, loads) -> Path:
 
 
 def lines(d: Path) -> list[dict]:
-    f = d / sw.RESULTS_FILE
+    f = d / RESULTS_FILE
     return [json.loads(x) for x in f.read_text().splitlines()] if f.exists() else []
 
 
@@ -78,7 +80,7 @@ def test_failing_case_is_recorded_and_sweep_goes_on(tmp_path, capsys):
                  '[parts.an]\ntask = "analytic"\naxes = { "load.P" = [0.02, 0.04] }\n' + BASE)
     out = tmp_path / "out"
     code = sw.main(["sweep", str(f), "-o", str(out), "--workers", "2", "--no-progress"])
-    assert code == sw.EXIT_FAILED_CASES
+    assert code == EXIT_FAILED_CASES
     recs = {r["part"] + str(r["index"]): r for r in lines(out)}
     assert set(recs) == {"fe0", "an0", "an1"}
     bad = recs["fe0"]
@@ -119,7 +121,7 @@ def test_interrupt_and_resume_runs_only_unfinished(tmp_path, signum):
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == sw.EXIT_SIGNAL[signum], stderr
+    assert proc.returncode == EXIT_SIGNAL[signum], stderr
     assert "interrupted" in stdout and "resume" in stdout
     first = lines(out)
     done = {r["key"] for r in first}

@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from compare import sweep as sw
+from compare.sweep.store import RESULTS_FILE
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 
@@ -55,7 +56,7 @@ def session_processes(sid: int) -> list[tuple[int, str]]:
 
 
 def records(out: Path) -> list[dict]:
-    f = out / sw.RESULTS_FILE
+    f = out / RESULTS_FILE
     return [json.loads(x) for x in f.read_text().splitlines()] if f.exists() else []
 
 

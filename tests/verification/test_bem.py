@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from compare import bem
+from compare import bem, bem_tangential
 
 A = 1.0
 R = 1.0
@@ -116,27 +116,27 @@ def cattaneo_shear(x: np.ndarray, c: float) -> np.ndarray:
 def test_cattaneo_mindlin_stages_2_and_3(ratio: float) -> None:
     sol = bem.solve_normal_bem(hertz, hertz_window(), 512, P, A)
     q0_total = ratio * MU * P
-    stage2 = bem.solve_tangential_bem(sol, MU, q0_total)
+    stage2 = bem_tangential.solve_tangential_bem(sol, MU, q0_total)
     c = A_HERTZ * np.sqrt(1 - q0_total / (MU * P))
     check_stick(stage2, (-c, c))
     inner = np.abs(sol.x) < 0.95 * A_HERTZ
     shear_err = np.abs(stage2.q - cattaneo_shear(sol.x, c))[inner].max()
     assert shear_err < 0.01 * MU * P0_HERTZ  # O(sqrt(dx)) at the stick edge kink
     for q_end in (0.5 * q0_total, -0.5 * q0_total, -q0_total):
-        stage3 = bem.solve_tangential_bem(sol, MU, q_end, q_start=stage2.q,
+        stage3 = bem_tangential.solve_tangential_bem(sol, MU, q_end, q_start=stage2.q,
                                           Q_start=q0_total)
         c3 = A_HERTZ * np.sqrt(1 - (q0_total - q_end) / (2 * MU * P))
         check_stick(stage3, (-c3, c3))
 
 
-def check_stick(shear: bem.BemShear, exact: tuple[float, float]) -> None:
+def check_stick(shear: bem_tangential.BemShear, exact: tuple[float, float]) -> None:
     normal = shear.normal
     c, d = shear.stick_zones[0]
     assert abs(c - exact[0]) <= STICK_EDGE_PANELS * normal.dx
     assert abs(d - exact[1]) <= STICK_EDGE_PANELS * normal.dx
     assert normal.dx * shear.q.sum() == pytest.approx(shear.Q, abs=ROUNDOFF * MU * P)
     bound = shear.mu * normal.p
-    assert np.all(np.abs(shear.q) <= bound * (1 + bem.SLIP_TOL) + 1e-300)
+    assert np.all(np.abs(shear.q) <= bound * (1 + bem_tangential.SLIP_TOL) + 1e-300)
     slipping = normal.active & ~shear.stick
     assert np.all(shear.slip[shear.stick] == 0)
     assert np.allclose(shear.q[slipping], bound[slipping] * np.sign(shear.slip[slipping]))
@@ -179,7 +179,7 @@ def test_two_cylinders_one_zone_in_full_slip() -> None:
     sol = bem.solve_normal_bem(two_cylinders, (-2.5, 2.5), 512, 0.05, A)
     assert len(sol.zones) == 2 and sol.zone_loads[1] < 0.5 * sol.zone_loads[0]
     # stick at the reduced load P* = P - Q / mu: only the first zone still touches
-    shear = bem.solve_tangential_bem(sol, MU, 0.8 * MU * sol.P)
+    shear = bem_tangential.solve_tangential_bem(sol, MU, 0.8 * MU * sol.P)
     assert shear.full_slip_zones == (1,)
     assert shear.stick_zones[1] is None and shear.stick_zones[0] is not None
     assert sol.dx * shear.q.sum() == pytest.approx(shear.Q, abs=ROUNDOFF)
@@ -217,11 +217,11 @@ def test_window_too_small_raises() -> None:
 def test_bad_tangential_inputs() -> None:
     sol = bem.solve_normal_bem(hertz, hertz_window(), 64, P, A)
     with pytest.raises(ValueError, match="mu=0"):
-        bem.solve_tangential_bem(sol, 0.0, 0.01)
+        bem_tangential.solve_tangential_bem(sol, 0.0, 0.01)
     with pytest.raises(ValueError, match="gross sliding"):
-        bem.solve_tangential_bem(sol, MU, MU * P)
+        bem_tangential.solve_tangential_bem(sol, MU, MU * P)
     with pytest.raises(ValueError, match="Q_start"):
-        bem.solve_tangential_bem(sol, MU, 0.01, q_start=np.zeros(64), Q_start=0.05)
+        bem_tangential.solve_tangential_bem(sol, MU, 0.01, q_start=np.zeros(64), Q_start=0.05)
 
 
 def test_cattaneo_mindlin_in_applied_moment_mode() -> None:
@@ -231,7 +231,7 @@ def test_cattaneo_mindlin_in_applied_moment_mode() -> None:
     sol = bem.solve_normal_bem(hertz, (-2 * A_HERTZ, 2 * A_HERTZ), 512, P, A, M=M)
     q_total = 0.6 * MU * P
     c = A_HERTZ * np.sqrt(1 - q_total / (MU * P))
-    check_stick(bem.solve_tangential_bem(sol, MU, q_total), (M / P - c, M / P + c))
+    check_stick(bem_tangential.solve_tangential_bem(sol, MU, q_total), (M / P - c, M / P + c))
 
 
 @pytest.mark.parametrize("n", [8, 100, 1024])

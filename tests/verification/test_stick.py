@@ -23,7 +23,7 @@ from scipy.optimize import brentq
 
 import analytic
 from analytic import profiles as pr
-from compare import bem
+from compare import bem, bem_tangential
 
 A, R, P, MU = 1.0, 1.0, 0.5, 0.3
 A_HERTZ = np.sqrt(2 * A * P * R / np.pi)
@@ -187,10 +187,11 @@ def bem_stick(profile, M, cases, N):
     out = []
     for Q, Q0 in cases:
         if Q0 is None:
-            out.append(bem.solve_tangential_bem(normal, MU, Q))
+            out.append(bem_tangential.solve_tangential_bem(normal, MU, Q))
         else:
-            start = bem.solve_tangential_bem(normal, MU, Q0)
-            out.append(bem.solve_tangential_bem(normal, MU, Q, q_start=start.q, Q_start=Q0))
+            start = bem_tangential.solve_tangential_bem(normal, MU, Q0)
+            out.append(bem_tangential.solve_tangential_bem(normal, MU, Q, q_start=start.q,
+                                                           Q_start=Q0))
     return out
 
 

@@ -31,13 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from compare.sweep import (
-    ANALYTIC_TASKS,
-    DEFAULT_METRICS,
-    SweepError,
-    read_manifest,
-    read_records,
-)
+from compare.errors import SweepError
+from compare.sweep.store import read_manifest, read_records
+from compare.sweep.tasks import ANALYTIC_TASKS, DEFAULT_METRICS
 
 #: Parameters with more distinct values than this are not used to split lines / panels.
 MAX_GROUPS = 12

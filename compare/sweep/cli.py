@@ -1,0 +1,139 @@
+"""Command line of sweeps: ``multicontact sweep`` and ``multicontact report --sweep DIR``.
+
+:func:`add_sweep_parser` registers both on the ``multicontact`` parser (``compare.cli``);
+:func:`main` is the stand-alone entry (``python -m compare.sweep``).  This layer dispatches to
+the runner (``compare.sweep.runner``) and to the report (``compare.sweep.report``), which do
+not know each other.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+from pathlib import Path
+
+from compare.errors import SweepError
+from compare.sweep.runner import SweepOutcome, pending_cases, run_sweep
+from compare.sweep.spec import Sweep, list_studies, load_sweep
+from compare.sweep.store import RESULTS_FILE, read_records
+
+#: Exit codes of ``multicontact sweep``.
+EXIT_OK, EXIT_FAILED_CASES, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143}
+#: Description of ``multicontact sweep --help``.
+DESCRIPTION = ("Parameter sweeps: many cases from one base case, run on a process pool or "
+               "dask.distributed.")
+
+
+def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
+    """Add the ``sweep`` subcommand (and ``report --sweep DIR`` if a report parser exists)."""
+    p = subparsers.add_parser("sweep", help="run a parameter sweep (process pool or dask)",
+                              description=DESCRIPTION)
+    p.add_argument("study", help="sweep file (.toml) or library study name "
+                   f"({', '.join(list_studies())})")
+    p.add_argument("-o", "--output", required=True, help="result directory (resumable)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes (default: available cores)")
+    p.add_argument("--scheduler", default=None,
+                   help="dask scheduler address tcp://host:port, or 'local' for a dask "
+                        "LocalCluster (default: local process pool, no dask needed)")
+    p.add_argument("--part", action="append", default=None,
+                   help="run only this part (repeatable)")
+    p.add_argument("--retry-failed", action="store_true", help="run failed cases again")
+    p.add_argument("--dry-run", action="store_true", help="list the cases to run and stop")
+    p.add_argument("--json", action="store_true", help="print the outcome as JSON")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sweep, handler=cmd_sweep)
+    report = subparsers.choices.get("report")
+    if report is not None:
+        _hook_report(report)
+    return p
+
+
+def _hook_report(report: argparse.ArgumentParser) -> None:
+    """``report --sweep DIR``: route to the sweep report, else to the case report."""
+    report.add_argument("--sweep", metavar="DIR", default=None,
+                        help="write the report of a sweep directory into DIR/report")
+    original = report.get_default("func") or report.get_default("handler")
+
+    def route(args) -> int:
+        if getattr(args, "sweep", None):
+            return cmd_sweep_report(args)
+        return original(args)
+
+    report.set_defaults(func=route, handler=route)
+
+
+def cmd_sweep_report(args) -> int:
+    from compare.sweep.report import write_sweep_report
+
+    try:
+        out = write_sweep_report(args.sweep)
+    except SweepError as exc:
+        print(f"multicontact report: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    print(f"sweep report: {out / 'index.html'} and {out / 'report.md'}")
+    return EXIT_OK
+
+
+def _dry_run(sweep: Sweep, args) -> int:
+    todo, skipped = pending_cases(sweep, args.output, args.part, args.retry_failed)
+    if args.json:
+        print(json.dumps({"to_run": [c.params | {"part": c.part} for c in todo],
+                          "finished": skipped}))
+    else:
+        print(f"{sweep.name}: {len(todo)} cases to run, {skipped} finished")
+        for c in todo:
+            print(f"  {c.part}#{c.index} {c.task} {c.params}")
+    return EXIT_OK
+
+
+def cmd_sweep(args) -> int:
+    """Entry of ``multicontact sweep`` (exit 0 all ok, 1 a case failed, 2 bad input, 130/143
+    interrupted)."""
+    try:
+        sweep = load_sweep(args.study)
+        if args.dry_run:
+            return _dry_run(sweep, args)
+        res = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
+                        parts=args.part, retry_failed=args.retry_failed,
+                        progress=not args.no_progress and not args.json)
+    except SweepError as exc:
+        print(f"multicontact sweep: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    _print_outcome(res, args.json)
+    if res.signal is not None:
+        return EXIT_SIGNAL.get(res.signal, 130)
+    return EXIT_FAILED_CASES if res.failed or _failed_in_store(sweep, args) else EXIT_OK
+
+
+def _failed_in_store(sweep: Sweep, args) -> bool:
+    recs = read_records(args.output)
+    return any(recs[c.key]["status"] != "ok" for c in sweep.cases
+               if c.key in recs and (not args.part or c.part in args.part))
+
+
+def _print_outcome(res: SweepOutcome, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(vars(res) | {"throughput_per_min": res.throughput_per_min}))
+        return
+    state = "interrupted" if res.signal is not None else "finished"
+    print(f"sweep {state}: {res.ok} ok, {res.failed} failed, {res.skipped} already done, "
+          f"{res.remaining} remaining of {res.total} ({res.elapsed_s:.1f} s) -> "
+          f"{Path(res.directory) / RESULTS_FILE}")
+    if res.signal is not None:
+        print("run the same command again to resume (finished cases are skipped)")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Stand-alone entry (``python -m compare.sweep``) with the sweep and report commands."""
+    parser = argparse.ArgumentParser(prog="multicontact")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_sweep_parser(sub)
+    rep = sub.add_parser("report", help="report of a sweep directory")
+    rep.add_argument("--sweep", metavar="DIR", required=True)
+    rep.set_defaults(func=cmd_sweep_report)
+    args = parser.parse_args(argv)
+    return args.func(args)
