@@ -291,6 +291,46 @@ def check_zone_size(prob: InterfaceProblem, state: ContactState, h: float) -> No
             )
 
 
+def assemble_bodies(
+    mesh, window, kinks, E: float, nu: float, timings: dict
+) -> tuple[TwoBodyMesh, int, Discretisation]:
+    """Build or read the mesh and assemble the bulk; return the mesh, the element order and
+    the discretisation (timed as 'assembly')."""
+    t0 = time.perf_counter()
+    tbm, order, boundary = resolve_mesh(mesh, window, kinks)
+    disc = discretise(tbm, order, E, nu, boundary)
+    timings["assembly"] = time.perf_counter() - t0
+    return tbm, order, disc
+
+
+def solve_increments(
+    prob: InterfaceProblem, schedule, contact: ContactSettings, M, h: float, timings: dict
+) -> list:
+    """Converged states of all scheduled increments (timed as 'increments'); the contact
+    zones at the end of stage 1 must be resolved (:func:`check_zone_size`)."""
+    t0 = time.perf_counter()
+    states = run_increments(prob, schedule, contact, M)
+    timings["increments"] = time.perf_counter() - t0
+    stage1_end = max(i for i, s in enumerate(schedule) if s[0] == 1)
+    check_zone_size(prob, states[stage1_end], h)
+    return states
+
+
+def recover_steps(model: Model, schedule, states, P0: float, mu: float, timings: dict):
+    """Full fields of all increments and their result steps, ``(fields, steps)`` (timed as
+    'recovery')."""
+    from .fields import FieldRecovery
+
+    t0 = time.perf_counter()
+    fields = FieldRecovery.from_states(model, states)
+    steps = tuple(
+        make_step(model, i, sched, st, fields, P0, mu)
+        for i, (sched, st) in enumerate(zip(schedule, states, strict=True))
+    )
+    timings["recovery"] = time.perf_counter() - t0
+    return fields, steps
+
+
 def solve_history(
     h0: Callable,
     P0: float,
@@ -310,43 +350,26 @@ def solve_history(
 ) -> FemHistory:
     """Solve the three-stage load history (paper, Table 1) by the finite element method.
 
-    Parameters: h0 vectorised gap callable (np.inf where contact is impossible);
-    P0 > 0 normal force; 0 <= Q0 <= mu P0 tangential amplitude; mu friction
-    coefficient; E, nu (-1 < nu < 0.5) of both bodies (plane strain); M: applied
-    moment (None: plate rotation locked = vertical indentation, M reported);
-    mesh: MeshSpec, MeshFile or path; contact: ContactSettings; increments:
-    LoadPath; kinks: x of profile corners (mesh nodes placed there); window:
-    expected contact window (xmin, xmax), or one window per expected zone
-    ((xmin, xmax), ...), for refinement (required for generated
-    meshes; with a mesh file it limits the candidate contact nodes); vtk_dir:
-    write the VTK time series there; backend: sparse solver ('auto', 'cholmod',
-    'pypardiso', 'scipy-splu').
+    Parameters: h0 vectorised gap callable (np.inf where contact is impossible); P0 > 0 normal
+    force; 0 <= Q0 <= mu P0 tangential amplitude; mu friction coefficient; E, nu (-1 < nu < 0.5)
+    of both bodies (plane strain); M: applied moment (None: plate rotation locked = vertical
+    indentation, M reported); mesh: MeshSpec, MeshFile or path; contact: ContactSettings;
+    increments: LoadPath; kinks: x of profile corners (mesh nodes placed there); window:
+    expected contact window (xmin, xmax), or one window per expected zone ((xmin, xmax), ...),
+    for refinement (required for generated meshes; with a mesh file it limits the candidate
+    contact nodes); vtk_dir: write the VTK time series there; backend: sparse solver ('auto',
+    'cholmod', 'pypardiso', 'scipy-splu').
     """
     P0, Q0, mu, E, nu, M = check_scalars(P0, Q0, mu, E, nu, M)
     check_settings(h0, mesh, contact, increments, kinks, window, vtk_dir, backend)
     schedule = load_schedule(P0, Q0, M, increments or LoadPath())
     timings = {}
-    t0 = time.perf_counter()
-    tbm, order, boundary = resolve_mesh(mesh, window, kinks)
-    disc = discretise(tbm, order, E, nu, boundary)
-    timings["assembly"] = time.perf_counter() - t0
+    tbm, order, disc = assemble_bodies(mesh, window, kinks, E, nu, timings)
     t_hist = time.perf_counter()
     settings = resolve_contact(contact, E, tbm.h_min)
     model = build_model(disc, h0, mu, window, settings, M is None, backend, timings)
-    t0 = time.perf_counter()
-    states = run_increments(model.prob, schedule, settings, M)
-    timings["increments"] = time.perf_counter() - t0
-    stage1_end = max(i for i, s in enumerate(schedule) if s[0] == 1)
-    check_zone_size(model.prob, states[stage1_end], tbm.h_min)
-    from .fields import FieldRecovery
-
-    t0 = time.perf_counter()
-    fields = FieldRecovery.from_states(model, states)
-    steps = tuple(
-        make_step(model, i, sched, st, fields, P0, mu)
-        for i, (sched, st) in enumerate(zip(schedule, states, strict=True))
-    )
-    timings["recovery"] = time.perf_counter() - t0
+    states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings)
+    fields, steps = recover_steps(model, schedule, states, P0, mu, timings)
     timings["history"] = time.perf_counter() - t_hist
     hist = FemHistory(
         steps=steps,

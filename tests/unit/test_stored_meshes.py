@@ -1,0 +1,99 @@
+"""meshes/: the parametric .geo sources, the stored level-0 meshes and the README table agree
+with each other and with fem's generator (no gmsh needed: meshes/generate.py checks the meshes
+it makes from the .geo against the same generator)."""
+
+import importlib.util
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fem
+from fem.mesh import NEAR_DEPTH, read_mesh
+from fem.settings import N_WINDOW_LEVEL0
+
+MESHES = Path(__file__).resolve().parents[2] / "meshes"
+E, NU, R, P = 1.0, 0.3, 100.0, 0.01
+A_HERTZ = np.sqrt(2 * 4 * (1 - NU**2) / E * P * R / np.pi)
+#: gmsh puts a block corner exactly on each kink (measured offset 0.0).
+KINK_ATOL = 1e-12
+ROW = re.compile(r"^\| ((\w+)_L(\d+)) \|.*\|$", re.MULTILINE)
+
+
+def load_generate():
+    """meshes/generate.py as a module (meshes/ is not a package)."""
+    spec = importlib.util.spec_from_file_location("meshes_generate", MESHES / "generate.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+gen = load_generate()
+
+
+def readme_rows() -> dict:
+    """README table rows by mesh name -> (case, level, row text)."""
+    text = (MESHES / "README.md").read_text()
+    return {m[1]: (m[2], int(m[3]), m[0]) for m in ROW.finditer(text)}
+
+
+def test_geo_parameters_are_the_fem_defaults():
+    spec = fem.MeshSpec()
+    for case in gen.CASES:
+        p = gen.geo_parameters(case)
+        assert p["level"] == 0
+        assert p["n_window"] == N_WINDOW_LEVEL0
+        assert (p["growth"], p["margin"], p["size_factor"]) == (
+            spec.growth,
+            spec.margin,
+            spec.size_factor,
+        )
+        assert p["near_depth"] == NEAR_DEPTH
+    hertz = gen.geo_parameters("hertz")
+    assert np.isclose(hertz["xmax"], 1.3 * A_HERTZ, rtol=1e-14)
+    assert (hertz["xmin"], hertz["kinks"]) == (-hertz["xmax"], ())
+    wedge = gen.geo_parameters("double_wedge")
+    assert (wedge["xmin"], wedge["xmax"], wedge["kinks"]) == (-1.6, 1.6, (-1.0, 0.0, 1.0))
+
+
+def test_readme_table_is_the_generator_at_the_geo_parameters():
+    rows = readme_rows()
+    assert sorted(rows) == sorted(f"{c}_L{lv}" for c in gen.CASES for lv in gen.LEVELS)
+    for name, (case, level, row) in rows.items():
+        p = gen.geo_parameters(case)
+        mesh = gen.reference_mesh(case, level)
+        assert gen.table_row(name, (p["xmin"], p["xmax"]), mesh) == row
+
+
+@pytest.mark.parametrize("case", ["hertz", "double_wedge"])
+def test_stored_mesh_is_the_geo_grid(case):
+    path = MESHES / f"{case}_L0.msh"
+    if not path.is_file():
+        pytest.fail(f"stored mesh {path} missing: run python meshes/generate.py 0")
+    mesh = read_mesh(fem.MeshFile(path))
+    p = gen.geo_parameters(case)
+    row = readme_rows()[f"{case}_L0"][2]
+    assert gen.table_row(f"{case}_L0", (p["xmin"], p["xmax"]), mesh) == row
+    offset = gen.grid_offset(mesh, gen.reference_mesh(case, 0))
+    print(f"{case}_L0: nodes {offset:.2e} W off fem's generator")
+    assert offset <= gen.GRID_RTOL
+    for body, name in ((0, "contact_upper"), (1, "contact_lower")):
+        x = mesh.bodies[body].p[0, mesh.nodes[name]]
+        assert all(np.min(np.abs(x - k)) < KINK_ATOL for k in p["kinks"])
+
+
+def test_grid_offset_sees_a_moved_node():
+    mesh = gen.reference_mesh("hertz", 0)
+    moved = gen.reference_mesh("hertz", 0)
+    moved.bodies[0].p[0, 7] += 1e-6
+    assert gen.grid_offset(mesh, mesh) == 0.0
+    assert gen.grid_offset(moved, mesh) > gen.GRID_RTOL
+    assert gen.grid_offset(gen.reference_mesh("hertz", 1), mesh) == np.inf
+
+
+def test_generate_without_gmsh_says_how_to_get_it(monkeypatch):
+    monkeypatch.delenv("GMSH", raising=False)
+    monkeypatch.setenv("PATH", "")
+    with pytest.raises(SystemExit, match="pip install gmsh"):
+        gen.gmsh_executable()
