@@ -37,7 +37,8 @@ def stick_cycle_figure(res: CaseResult) -> bytes | None:
     Q0 = res.case.Q0
     cyc = analytic_cycle(res)
     keep = cyc.stage <= 3  # the FE history covers stages 2 and 3
-    t_an = np.array([_t(st, q, Q0) for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
+    t_an = np.array([cycle_parameter(st, q, Q0)
+                     for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
     edges = cyc.stick_edges[keep]  # nan where a zone is in full slip
     fig, ax = plt.subplots(figsize=(7.5, 3.8))
     for k, (a, b) in enumerate(res.analytic.normal.zones):
@@ -45,7 +46,7 @@ def stick_cycle_figure(res: CaseResult) -> bytes | None:
             ax.plot(t_an, edges[:, k, j], "k-", lw=1.1, label="analytic" if k == j == 0 else None)
         ax.axhspan(a, b, color="0.92", zorder=0)
     for step in res.fem.stage(2) + res.fem.stage(3):
-        t = _t(step.stage, step.Q, Q0)
+        t = cycle_parameter(step.stage, step.Q, Q0)
         for s in step.stick_zones:
             if s is not None:
                 ax.plot([t, t], s, "o", ms=2.5, color="tab:red")
@@ -63,7 +64,9 @@ def analytic_cycle(res: CaseResult):
                 lambda: analytic.cycle(normal, mu, Q0, n=3 * CYCLE_POINTS + 1))
 
 
-def _t(stage: int, Q: float, Q0: float) -> float:
+def cycle_parameter(stage: int, Q: float, Q0: float) -> float:
+    """Abscissa of a tangential state along the cycle: Q / Q0 in stage 2 (0 -> 1), then
+    1 + (Q0 - Q) / (2 Q0) in stage 3 (1 -> 2 as Q goes Q0 -> -Q0)."""
     return Q / Q0 if stage == 2 else 1.0 + (Q0 - Q) / (2 * Q0)
 
 

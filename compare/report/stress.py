@@ -19,7 +19,7 @@ from matplotlib.tri import Triangulation  # noqa: E402
 
 import analytic  # noqa: E402
 from compare import stress as cs  # noqa: E402
-from compare.report.figures import _t, analytic_cycle, png  # noqa: E402
+from compare.report.figures import analytic_cycle, cycle_parameter, png  # noqa: E402
 from compare.run import CaseResult  # noqa: E402
 
 CONTOUR_LEVELS = 21
@@ -88,7 +88,8 @@ def ruiz_figure(res: CaseResult) -> bytes | None:
     normal, Q0 = res.analytic.normal, res.case.Q0
     cyc = analytic_cycle(res)
     keep = cyc.stage <= 3
-    t = np.array([_t(st, q, Q0) for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
+    t = np.array([cycle_parameter(st, q, Q0)
+                  for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
     rz = analytic.ruiz(analytic.solve_stick(normal, res.case.mu, -Q0, Q0, allow_full_slip=True))
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True,
                              gridspec_kw={"width_ratios": [3, 2]})
