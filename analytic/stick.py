@@ -62,10 +62,10 @@ from functools import lru_cache
 import numpy as np
 
 from analytic import _validate as check
+from analytic._breakpoints import breakpoints, split_at_kinks
 from analytic._vectorise import elementwise
 from analytic.errors import ConvergenceError, InputError
 from analytic.normal import NormalSolution, load_curve
-from analytic.profiles import Profile
 
 FRICTION_TOL = 1e-8
 """Allowed ``|q| - mu p`` relative to ``mu P / extent`` (the normal solutions are ~1e-12 exact)."""
@@ -314,21 +314,6 @@ def _slip_intervals(zone: tuple[float, float], stick: list[tuple[float, float]]
     return tuple((lo, hi) for lo, hi in zip(cuts[0::2], cuts[1::2], strict=True) if hi - lo > tiny)
 
 
-def _split_at_kinks(profile: Profile, lo: float, hi: float) -> np.ndarray:
-    """``[lo, hi]`` cut at the profile kinks inside (the pressure is log-singular there)."""
-    return np.asarray([lo, *(v for v in profile.kinks if lo < v < hi), hi], float)
-
-
-def _breakpoints(sol: StickSolution, k: int) -> np.ndarray:
-    """Contact edges, profile kinks and every stick edge (this and earlier stages) in zone k."""
-    pts = list(_split_at_kinks(sol.normal.profile, *sol.normal.zones[k]))
-    s: StickSolution | None = sol
-    while s is not None:
-        pts += [v for cd in s.stick_intervals[k] for v in cd]
-        s = s.previous
-    return np.unique(np.asarray(pts, float))
-
-
 # ---------------------------------------------------------------------------------------------
 # quadrature: Gauss-Legendre in the angle of x = lo + (hi - lo)(1 - cos t)/2
 # ---------------------------------------------------------------------------------------------
@@ -398,7 +383,7 @@ def _checked(states: list[StickSolution]) -> list[StickSolution]:
     ``int q dx = Q`` from the zone loads of the normal solutions (exact contour integrals).
     """
     nrm = states[0].normal
-    xs = [np.concatenate([_zone_rule(_breakpoints(s, k), CHECK_NODES)[0]
+    xs = [np.concatenate([_zone_rule(breakpoints(s, k), CHECK_NODES)[0]
                           for k in range(nrm.n_zones)]) for s in states]
     cut = np.cumsum([0] + [x.size for x in xs])
     X = np.concatenate(xs)
@@ -548,7 +533,7 @@ def _dissipation(end: StickSolution) -> tuple[float, ...]:
     for k in range(end.normal.n_zones):
         total = 0.0
         for lo, hi in end.slip_zones[k]:
-            x, w = _zone_rule(_split_at_kinks(end.normal.profile, lo, hi))
+            x, w = _zone_rule(split_at_kinks(end.normal.profile, lo, hi))
             total += float(w @ (end.normal.pressure(x) * end.reduced.gap(x)))
         W.append(4 * end.mu**2 * total)
     return tuple(W)

@@ -10,7 +10,9 @@ import pytest
 
 import analytic
 from analytic import _newton, profiles
-from analytic._sie import GAP_CHUNK, GRADING, Batch, Layout, System, graded_rule
+from analytic._gap_quadrature import GAP_CHUNK
+from analytic._rules import GRADING, graded_rule
+from analytic._sie import Batch, Layout, System
 
 ROUNDOFF = 1e-12
 """Same sums in a different order / batch shape: agreement to a few ulps of the sums' scale."""

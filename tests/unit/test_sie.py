@@ -1,4 +1,5 @@
-"""Unit tests of the pure functions of ``analytic._sie`` (quadrature, series, sign rules).
+"""Unit tests of the pure functions of ``analytic._sie``, ``_rules`` and ``_layout`` (quadrature,
+series, sign rules).
 
 Known integrals (Gradshteyn & Ryzhik 3.196.3, 3.121; elementary with ``x = m - r cos t``):
 - ``int_{-1}^{1} (1-t)^al (1+t)^be dt = 2^(al+be+1) B(al+1, be+1)``,
@@ -15,19 +16,9 @@ from scipy.special import beta as beta_fn
 from scipy.special import binom
 
 from analytic import profiles
-from analytic._sie import (
-    BASE_NODES,
-    MAX_NODES,
-    Layout,
-    System,
-    jacobi_rule,
-    mapped_rule,
-    nodes_for,
-    series_coeffs,
-    sign_exponent,
-    sign_from_d,
-    w_abs,
-)
+from analytic._layout import sign_exponent, sign_from_d, w_abs
+from analytic._rules import BASE_NODES, MAX_NODES, jacobi_rule, mapped_rule, nodes_for
+from analytic._sie import Layout, System, series_coeffs
 
 ROUNDOFF = 1e-13
 """Relative tolerance for exact quadrature / algebra in double precision (a few ulps x n)."""

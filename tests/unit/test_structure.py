@@ -1,0 +1,107 @@
+"""The package layout a newcomer relies on: layers, no import circles, no borrowed private names.
+
+``analytic/`` and ``fem/`` never import each other (``compare/`` uses both); within the three
+packages no two modules import each other, directly or round a loop (function-level imports
+count); and no module imports another module's underscore names (a name two modules share is
+part of the package's internal interface and is named so).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGES = ("analytic", "fem", "compare")
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _modules() -> dict[str, Path]:
+    return {_module_name(p): p for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py"))}
+
+
+def _imports(path: Path, name: str) -> list[tuple[str, list[str]]]:
+    """(imported module, imported names) of every import statement, relative ones resolved."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out += [(a.name, []) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*up, base] if base else up)
+            out.append((base, [a.name for a in node.names]))
+    return out
+
+
+def _graph() -> dict[str, set[str]]:
+    """Module -> the package modules it imports (``from pkg import mod`` counts as ``pkg.mod``)."""
+    mods = _modules()
+    graph: dict[str, set[str]] = {m: set() for m in mods}
+    for mod, path in mods.items():
+        for target, names in _imports(path, mod):
+            subs = {f"{target}.{n}" for n in names} & mods.keys()
+            graph[mod] |= subs or ({target} & mods.keys())
+            graph[mod] -= {mod}
+    return graph
+
+
+def _cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(m: str) -> list[str] | None:
+        state[m] = 1
+        stack.append(m)
+        for n in sorted(graph[m]):
+            if state.get(n) == 1:
+                return stack[stack.index(n):] + [n]
+            if n not in state and (found := visit(n)):
+                return found
+        stack.pop()
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state and (found := visit(m)):
+            return found
+    return None
+
+
+def test_analytic_and_fem_never_import_each_other():
+    graph = _graph()
+    bad = [(m, n) for m, targets in graph.items() for n in targets
+           if {m.split(".")[0], n.split(".")[0]} == {"analytic", "fem"}]
+    assert not bad, f"analytic/ and fem/ must not import each other: {bad}"
+
+
+def test_no_import_cycles():
+    cycle = _cycle(_graph())
+    assert cycle is None, "import circle: " + " -> ".join(cycle or [])
+
+
+def test_no_module_imports_another_modules_private_names():
+    mods = _modules()
+    bad = []
+    for mod, path in mods.items():
+        for target, names in _imports(path, mod):
+            if target in mods and target != mod:
+                bad += [f"{mod} imports {target}.{n}" for n in names
+                        if n.startswith("_") and f"{target}.{n}" not in mods]
+    assert not bad, "private names imported across modules:\n" + "\n".join(bad)
+
+
+@pytest.mark.parametrize("graph, expected", [
+    ({"a": {"b"}, "b": {"c"}, "c": {"a"}}, ["a", "b", "c", "a"]),
+    ({"a": {"b"}, "b": {"c"}, "c": set()}, None),
+])
+def test_cycle_finder(graph, expected):
+    assert _cycle(graph) == expected
