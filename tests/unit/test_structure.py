@@ -2,8 +2,8 @@
 
 ``analytic/`` and ``fem/`` never import each other (``compare/`` uses both); within the three
 packages no two modules import each other, directly or round a loop (function-level imports
-count); and no module imports another module's underscore names (a name two modules share is
-part of the package's internal interface and is named so).
+count, ``if TYPE_CHECKING:`` ones do not); and no module imports another module's underscore
+names (a name two modules share is part of the package's internal interface and is named so).
 """
 
 from __future__ import annotations
@@ -26,11 +26,23 @@ def _modules() -> dict[str, Path]:
     return {_module_name(p): p for pkg in PACKAGES for p in sorted((ROOT / pkg).rglob("*.py"))}
 
 
+def _typing_only(tree: ast.AST) -> set[int]:
+    """ids of the nodes under ``if TYPE_CHECKING:`` (annotations only: not run, not a circle)."""
+    return {id(n) for block in ast.walk(tree) if isinstance(block, ast.If)
+            and isinstance(block.test, ast.Name) and block.test.id == "TYPE_CHECKING"
+            for stmt in block.body for n in ast.walk(stmt)}
+
+
 def _imports(path: Path, name: str) -> list[tuple[str, list[str]]]:
-    """(imported module, imported names) of every import statement, relative ones resolved."""
+    """(imported module, imported names) of every import statement that runs (function-level
+    ones included), relative ones resolved."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    tree = ast.parse(path.read_text())
+    skip = _typing_only(tree)
     out = []
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
         if isinstance(node, ast.Import):
             out += [(a.name, []) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -105,3 +117,14 @@ def test_no_module_imports_another_modules_private_names():
 ])
 def test_cycle_finder(graph, expected):
     assert _cycle(graph) == expected
+
+
+def test_imports_resolve_relative_and_skip_typing_only(tmp_path):
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    path = pkg / "mod.py"
+    path.write_text("from typing import TYPE_CHECKING\nfrom . import other\n"
+                    "from .sub import _hidden\nif TYPE_CHECKING:\n    import pkg.late\n"
+                    "def f():\n    import pkg.lazy\n")
+    assert _imports(path, "pkg.mod") == [("typing", ["TYPE_CHECKING"]), ("pkg", ["other"]),
+                                         ("pkg.sub", ["_hidden"]), ("pkg.lazy", [])]
