@@ -9,6 +9,7 @@ names (a name two modules share is part of the package's internal interface and 
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -128,3 +129,22 @@ def test_imports_resolve_relative_and_skip_typing_only(tmp_path):
                     "def f():\n    import pkg.lazy\n")
     assert _imports(path, "pkg.mod") == [("typing", ["TYPE_CHECKING"]), ("pkg", ["other"]),
                                          ("pkg.sub", ["_hidden"]), ("pkg.lazy", [])]
+
+
+def _layout_sections() -> dict[str, str]:
+    text = (ROOT / "docs" / "layout.md").read_text()
+    parts = re.split(r"^## (\S+)", text, flags=re.M)
+    return {name.rstrip("/"): body for name, body in zip(parts[1::2], parts[2::2], strict=True)}
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_layout_doc_names_every_module_and_only_those(package):
+    """docs/layout.md, the newcomer's map, lists each module and subpackage of the package
+    and nothing that no longer exists."""
+    section = _layout_sections()[package]
+    on_disk = {p.name for p in (ROOT / package).glob("*.py") if p.name != "__init__.py"}
+    on_disk |= {f"{p.name}/" for p in (ROOT / package).iterdir()
+                if p.is_dir() and (p / "__init__.py").is_file()}
+    named = set(re.findall(r"`(\w+\.py|\w+/)`", section))
+    assert on_disk - named == set(), f"modules missing from docs/layout.md: {on_disk - named}"
+    assert named - on_disk == set(), f"docs/layout.md names what is gone: {named - on_disk}"
