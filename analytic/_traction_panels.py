@@ -144,7 +144,7 @@ def tractions(solution, x: np.ndarray) -> np.ndarray:
     evaluated closer than ~1e-9 of a sub-interval to a kink, see KINK_LEVELS).
     """
     if isinstance(solution, StickSolution):  # p evaluated once for both
-        out = np.column_stack(solution._pressure_and_shear(x))
+        out = np.column_stack(solution.pressure_and_shear(x))
     else:
         out = np.column_stack([solution.pressure(x), np.zeros(x.size)])
     bad = ~np.all(np.isfinite(out), axis=1)

@@ -147,10 +147,11 @@ class StickSolution:
         Stage 2: ``sigma mu [p(x; P) - p_S(x; P*)]``;
         stage 3: ``q0 - 2 sigma mu [p(x; P) - p_S(x; P**)]``.
         """
-        return self._pressure_and_shear(x)[1]
+        return self.pressure_and_shear(x)[1]
 
-    def _pressure_and_shear(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``p(x)`` and ``q(x)``: the stage-1 pressure is evaluated once for the whole history."""
+    def pressure_and_shear(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``p(x)`` and ``q(x)`` at the points of the array ``x`` (``q`` summed over the stages
+        of this state's history; the stage-1 pressure is evaluated once for all of them)."""
         p = self.normal.pressure(x)
         q = np.zeros(x.shape)
         s: StickSolution | None = self
