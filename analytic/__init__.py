@@ -7,6 +7,7 @@ M = int x p dx about x = 0.  Entry points: :func:`solve_normal`, :func:`load_cur
 
 from analytic import profiles
 from analytic.errors import ConvergenceError, InputError
+from analytic.fretting import CycleResult, cycle
 from analytic.normal import (
     NormalSolution,
     load_curve,
@@ -14,7 +15,7 @@ from analytic.normal import (
     solve_normal_fixed_rotation,
 )
 from analytic.overlap import Fig5Data, OverlapSolution, fig5_data, overlapped
-from analytic.stick import CycleResult, StickSolution, cycle, solve_stick
+from analytic.stick import StickSolution, solve_stick
 from analytic.stress import RuizResult, StressField, ruiz, stress, surface_stress
 
 __all__ = [

@@ -35,23 +35,15 @@ The stick-zone side conditions -- consistency (paper Eq. 16) and rigid interconn
 Both are exact only if (i) ``S`` lies inside ``L``, (ii) ``|q| <= mu p`` on ``S`` (i.e.
 ``0 <= p_S <= 2 p`` in stage 2) and (iii) the slip grows monotonically in its direction as the
 stage proceeds (``g_S`` non-increasing in the reduced load).  (i) and (ii) are checked for every
-solution, (iii) along every :func:`cycle`; a violation raises :class:`ConvergenceError`.
+solution, (iii) along every :func:`analytic.fretting.cycle`; a violation raises
+:class:`ConvergenceError`.
 
 A contact zone that holds no contact of the reduced problem is in *full slip*.  The paper's claim
 that all zones reach full slip together (Section 5) holds only if all zones start touching at
 the same load of the reduced problem ``h0 - theta x``; unequal lifts, or an applied moment
 (``theta != 0``), make one zone slip fully before the others.
 
-Dissipation per steady cycle ``Q0 -> -Q0 -> Q0``: a point that slips in stage 3 keeps slipping
-with ``q = -sigma mu p`` (condition iii) from ``s = 0`` to ``s = -2 sigma mu g_S(x; P*)``, so the
-friction work there is ``2 mu^2 p g_S(x; P*)``; the return half is its mirror image.  Per zone
-
-    W_k = oint int_{L_k} q ds dx = 4 mu^2 int_{L_k} p(x) g_S(x; P - Q0/mu) dx.
-
-For Hertz (``c = a sqrt(1 - Q0/(mu P))``, ``g_S = (|x| sqrt(x^2 - c^2) - c^2 acosh(|x|/c))/(2R)``)
-the slip zones have width ``eps = a Q0/(2 mu P)``, ``p ~ sqrt(eps)`` and ``g_S ~ eps^(3/2)`` there,
-so ``W = 4 mu^2 * 2 * (4/3)(p0/R) B(3/2, 5/2) eps^3 = A Q0^3 / (3 pi mu P) (1 + O(Q0/(mu P)))``
-(with ``p0 = a/(A R)``, ``a^2 = 2 A P R/pi``): the classic cubic law of Mindlin's dissipation.
+The loading cycle and its dissipation: :mod:`analytic.fretting`.
 """
 
 from __future__ import annotations
@@ -62,7 +54,7 @@ from functools import lru_cache
 import numpy as np
 
 from analytic import _validate as check
-from analytic._breakpoints import breakpoints, split_at_kinks
+from analytic._breakpoints import breakpoints
 from analytic._vectorise import elementwise
 from analytic.errors import ConvergenceError, InputError
 from analytic.normal import NormalSolution, load_curve
@@ -77,16 +69,11 @@ GROSS_SLIP_REL = 1e-12
 """``|Q|`` within this fraction of ``mu P`` counts as ``mu P`` (gross sliding)."""
 SAME_LOAD_REL = 1e-14
 """A reduced load this close to P reuses the stage-1 solution (the reduced problem is stage 1)."""
-RATE_TOL = 1e-9
-"""Allowed rise of ``g_S`` with the reduced load between cycle samples, relative to ``A P``
-(condition iii; a rise means a point slips backwards against its shear)."""
 QUAD_NODES = 32
 """Gauss-Legendre nodes per sub-interval in the cosine map, cut at edges and kinks (W of the
 double wedge, log-singular pressure at a kink end, agrees to 1e-14 from 24 nodes)."""
 CHECK_NODES = 24
 """Nodes per sub-interval at which ``|q| <= mu p`` is checked (clustered at the ends)."""
-RATE_NODES = 8
-"""Nodes per slip interval at which the monotonic-slip condition is checked along a cycle."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -178,54 +165,14 @@ class StickSolution:
         return out
 
 
-@dataclass(frozen=True)
-class CycleResult:
-    """The cycle ``0 -> Q0 -> -Q0 -> Q0`` sampled at ``n`` loads: stick-slip map and dissipation.
-
-    Attributes
-    ----------
-    normal, mu, Q0 : the stage-1 solution, friction coefficient and amplitude (``Q0 > 0``).
-    Q : (n,) tangential loads along the path.  Stage 2 ``0 -> Q0`` and the half cycles
-        ``Q0 -> -Q0`` and ``-Q0 -> Q0`` get the same number ``m`` of load steps (stage 2 twice as
-        dense in Q), so all samples share the ``m + 1`` reduced loads ``P - k Q0 / (m mu)``.
-    stage : (n,) 2, 3 (``Q0 -> -Q0``) or 4 (``-Q0 -> Q0``, the mirror image of stage 3).
-    P_reduced : (n,) reduced load of each sample.
-    stick_edges : (n, n_zones, 2) stick edges ``(c, d)`` per sample and zone; ``nan`` in full slip.
-    full_slip : (n, n_zones) True where a zone is in full slip.
-    states : the :class:`StickSolution` of each sample (stage 4 samples are stage-3 solutions
-        started from ``-Q0``: ``solve_stick(normal, mu, Q, -Q0)``).
-    W : dissipated energy per steady cycle per zone (energy per unit width),
-        ``4 mu^2 int_{L_k} p g_S(x; P - Q0/mu) dx`` (module docstring).
-    residuals : worst self-checks over all samples, and ``rate`` (largest rise of ``g_S`` with
-        the reduced load, relative to ``A P``; <= RATE_TOL, else the loop integral fails).
-    """
-
-    normal: NormalSolution = field(repr=False)
-    mu: float
-    Q0: float
-    Q: np.ndarray
-    stage: np.ndarray
-    P_reduced: np.ndarray
-    stick_edges: np.ndarray
-    full_slip: np.ndarray
-    states: tuple[StickSolution, ...] = field(repr=False)
-    W: tuple[float, ...]
-    residuals: dict[str, float]
-
-    @property
-    def W_total(self) -> float:
-        """Dissipated energy per steady cycle, all zones."""
-        return float(sum(self.W))
-
-
 # ---------------------------------------------------------------------------------------------
 # validation
 # ---------------------------------------------------------------------------------------------
-def _check_normal(normal: NormalSolution) -> None:
+def check_normal(normal: NormalSolution) -> None:
     check.instance("normal", normal, NormalSolution, "an analytic.NormalSolution")
 
 
-def _check_mu(mu: float) -> float:
+def check_mu(mu: float) -> float:
     return check.positive("mu", mu, "friction coefficient")
 
 
@@ -250,7 +197,7 @@ def _check_stage3_load(Q: float, Q0: float) -> float:
 # ---------------------------------------------------------------------------------------------
 # reduced (stick-zone) problems
 # ---------------------------------------------------------------------------------------------
-def _reduced_solutions(normal: NormalSolution, loads: np.ndarray) -> list[NormalSolution | None]:
+def reduced_solutions(normal: NormalSolution, loads: np.ndarray) -> list[NormalSolution | None]:
     """Normal solutions at the reduced loads and the rotation of stage 1 (one continuation)."""
     P = normal.P
     out: list[NormalSolution | None] = [None] * loads.size
@@ -336,7 +283,7 @@ def cosine_rule(lo: float, hi: float, n: int = QUAD_NODES) -> tuple[np.ndarray, 
     return lo + half * (1.0 - np.cos(t)), w * 0.5 * np.pi * half * np.sin(t)
 
 
-def _zone_rule(pts: np.ndarray, n: int = QUAD_NODES) -> tuple[np.ndarray, np.ndarray]:
+def zone_rule(pts: np.ndarray, n: int = QUAD_NODES) -> tuple[np.ndarray, np.ndarray]:
     rules = [cosine_rule(lo, hi, n) for lo, hi in zip(pts[:-1], pts[1:], strict=True) if hi > lo]
     return np.concatenate([r[0] for r in rules]), np.concatenate([r[1] for r in rules])
 
@@ -344,14 +291,14 @@ def _zone_rule(pts: np.ndarray, n: int = QUAD_NODES) -> tuple[np.ndarray, np.nda
 # ---------------------------------------------------------------------------------------------
 # building a state and checking it
 # ---------------------------------------------------------------------------------------------
-def _state(normal: NormalSolution, mu: float, Q: float, Q0: float | None,
+def checked_state(normal: NormalSolution, mu: float, Q: float, Q0: float | None,
            reduced: NormalSolution | None, P_red: float,
            previous: StickSolution | None) -> StickSolution:
-    """The checked state (see :func:`_unchecked_state`, :func:`_checked`)."""
-    return _checked([_unchecked_state(normal, mu, Q, Q0, reduced, P_red, previous)])[0]
+    """The checked state (see :func:`unchecked_state`, :func:`check_states`)."""
+    return check_states([unchecked_state(normal, mu, Q, Q0, reduced, P_red, previous)])[0]
 
 
-def _unchecked_state(normal: NormalSolution, mu: float, Q: float, Q0: float | None,
+def unchecked_state(normal: NormalSolution, mu: float, Q: float, Q0: float | None,
                      reduced: NormalSolution | None, P_red: float,
                      previous: StickSolution | None) -> StickSolution:
     if Q0 is None:
@@ -377,14 +324,14 @@ def _chain(sol: StickSolution) -> list[StickSolution]:
     return out
 
 
-def _checked(states: list[StickSolution]) -> list[StickSolution]:
+def check_states(states: list[StickSolution]) -> list[StickSolution]:
     """Self-check states sharing one stage-1 solution, each pressure evaluated once per batch.
 
     Coulomb's bound ``|q| <= mu p`` on nodes clustered at every edge and kink, and
     ``int q dx = Q`` from the zone loads of the normal solutions (exact contour integrals).
     """
     nrm = states[0].normal
-    xs = [np.concatenate([_zone_rule(breakpoints(s, k), CHECK_NODES)[0]
+    xs = [np.concatenate([zone_rule(breakpoints(s, k), CHECK_NODES)[0]
                           for k in range(nrm.n_zones)]) for s in states]
     cut = np.cumsum([0] + [x.size for x in xs])
     X = np.concatenate(xs)
@@ -437,124 +384,21 @@ def solve_stick(normal: NormalSolution, mu: float, Q: float, Q0: float | None = 
     ``full_slip_zones``, ``q = +-mu p``, slip ``nan``).  Raises :class:`ConvergenceError` if the
     state violates ``|q| <= mu p`` or ``int q = Q`` (see the module docstring).
     """
-    _check_normal(normal)
-    mu = _check_mu(mu)
+    check_normal(normal)
+    mu = check_mu(mu)
     allow_full_slip = check.flag("allow_full_slip", allow_full_slip)
     limit = mu * normal.P
     if Q0 is None:
         Q = _check_tangential("Q", Q, limit, allow_full_slip)
         P_red = _stage2_load(normal.P, mu, Q)
-        reduced = _reduced_solutions(normal, np.array([P_red]))[0]
-        return _state(normal, mu, Q, None, reduced, P_red, None)
+        reduced = reduced_solutions(normal, np.array([P_red]))[0]
+        return checked_state(normal, mu, Q, None, reduced, P_red, None)
     Q0 = _check_tangential("Q0", Q0, limit, True)
     Q = _check_stage3_load(Q, Q0)
     loads = np.array([_stage2_load(normal.P, mu, Q0), _stage3_load(normal.P, mu, Q, Q0)])
     if loads[1] <= GROSS_SLIP_REL * normal.P and not allow_full_slip:
         raise InputError(f"Q={Q!r} is not allowed: with |Q0| = mu P = {limit:.6g}, Q = -Q0 is "
                          "gross sliding (no stick zone); pass allow_full_slip=True for that state")
-    red0, red = _reduced_solutions(normal, loads)
-    q0 = _state(normal, mu, Q0, None, red0, float(loads[0]), None)
-    return _state(normal, mu, Q, Q0, red, float(loads[1]), q0)
-
-
-def _cycle_loads(Q0: float, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Path samples (Q, stage, k): stage 2 has ``m + r`` steps, the half cycles ``m`` each."""
-    m = (n - 1) // 3
-    m2 = n - 1 - 2 * m
-    Q2 = Q0 * np.arange(m2 + 1) / m2
-    k = np.arange(1, m + 1)
-    Q3 = Q0 - 2 * Q0 * k / m
-    Q = np.concatenate([Q2, Q3, -Q3])
-    stage = np.concatenate([np.full(m2 + 1, 2), np.full(m, 3), np.full(m, 4)])
-    return Q, stage, np.concatenate([np.arange(m2 + 1) / m2, k / m, k / m])
-
-
-def cycle(normal: NormalSolution, mu: float, Q0: float, n: int = 100) -> CycleResult:
-    """The loading cycle ``0 -> Q0 -> -Q0 -> Q0`` at ``n`` samples (paper Table 1, stages 2-3).
-
-    Returns the stick-slip map (stick edges per zone vs Q), the states, and the dissipation per
-    steady cycle per zone (module docstring).  All reduced problems come from one continuation.
-    Needs ``0 < Q0 < mu P`` (at ``Q0 = mu P`` the gross-sliding slip, hence W, is unbounded)
-    and ``n >= 7``.
-    """
-    _check_normal(normal)
-    mu = _check_mu(mu)
-    Q0 = check.real("Q0", Q0, f"0 < Q0 < mu P = {mu * normal.P:.6g} in a cycle (Q0 = mu P is "
-                    "gross sliding, W unbounded)",
-                    lambda v: 0 < v < mu * normal.P * (1 - GROSS_SLIP_REL))
-    n = check.integer("n", n, 7)
-    Q, stage, frac = _cycle_loads(Q0, int(n))
-    P_red = normal.P - frac * Q0 / mu
-    uniq, inv = np.unique(P_red, return_inverse=True)
-    reds = _reduced_solutions(normal, uniq)
-    i_end = int(np.sum(stage == 2)) - 1
-    end = _state(normal, mu, Q0, None, reds[inv[i_end]], P_red[i_end], None)
-    mirror = _mirrored(end)
-    states = []
-    for i in range(Q.size):
-        red = reds[inv[i]]
-        if stage[i] == 2:
-            states.append(end if Q[i] == Q0 else _unchecked_state(normal, mu, Q[i], None, red,
-                                                                  P_red[i], None))
-        else:
-            prev, start = (end, Q0) if stage[i] == 3 else (mirror, -Q0)
-            states.append(_unchecked_state(normal, mu, Q[i], start, red, P_red[i], prev))
-    checked = _checked(states)
-    return _cycle_result(normal, mu, Q0, Q, stage, P_red, tuple(checked), reds, inv)
-
-
-def _mirrored(end: StickSolution) -> StickSolution:
-    """The stage-2 end state at ``-Q0`` (shear ``-q0``): the start of the return half cycle."""
-    return StickSolution(
-        normal=end.normal, mu=end.mu, Q=-end.Q, Q0=None, stage=2, direction=-end.direction,
-        P_reduced=end.P_reduced, reduced=end.reduced, stick_zones=end.stick_zones,
-        stick_intervals=end.stick_intervals, slip_zones=end.slip_zones,
-        full_slip_zones=end.full_slip_zones, previous=None, residuals=dict(end.residuals))
-
-
-def _cycle_result(normal, mu, Q0, Q, stage, P_red, states, reds, inv) -> CycleResult:
-    nz = normal.n_zones
-    edges = np.full((Q.size, nz, 2), np.nan)
-    for i, s in enumerate(states):
-        for k, cd in enumerate(s.stick_zones):
-            if cd is not None:
-                edges[i, k] = cd
-    end = states[int(np.sum(stage == 2)) - 1]
-    residuals = {key: max(s.residuals[key] for s in states)
-                 for key in ("friction", "equilibrium", "containment")}
-    residuals["rate"] = _rate_check(end, [reds[j] for j in np.unique(inv)])
-    return CycleResult(normal=normal, mu=mu, Q0=Q0, Q=Q, stage=stage, P_reduced=P_red,
-                       stick_edges=edges, full_slip=np.isnan(edges[:, :, 0]), states=states,
-                       W=_dissipation(end), residuals=residuals)
-
-
-def _dissipation(end: StickSolution) -> tuple[float, ...]:
-    """``W_k = 4 mu^2 int_{L_k} p g_S(x; P*) dx`` over the slip zones of the stage-2 end state."""
-    W = []
-    for k in range(end.normal.n_zones):
-        total = 0.0
-        for lo, hi in end.slip_zones[k]:
-            x, w = _zone_rule(split_at_kinks(end.normal.profile, lo, hi))
-            total += float(w @ (end.normal.pressure(x) * end.reduced.gap(x)))
-        W.append(4 * end.mu**2 * total)
-    return tuple(W)
-
-
-def _rate_check(end: StickSolution, reds: list[NormalSolution]) -> float:
-    """Condition (iii): ``g_S`` at the slip-zone points must not grow with the reduced load.
-
-    ``reds`` are ordered by increasing load.  Returns the largest increase of ``g_S`` between
-    consecutive loads, relative to ``A P`` (times mu it is the slip lost); raises if > RATE_TOL.
-    """
-    pts = [cosine_rule(lo, hi, RATE_NODES)[0] for zs in end.slip_zones for lo, hi in zs]
-    if not pts:
-        return 0.0
-    x = np.concatenate(pts)
-    g = np.array([r.gap(x) for r in reds])
-    worst = float(np.max(np.diff(g, axis=0), initial=0.0)) / (end.normal.A * end.normal.P)
-    if worst > RATE_TOL:
-        raise ConvergenceError(
-            f"the slip does not grow monotonically along the cycle (g_S rises by {worst:.3e} A P"
-            " with the reduced load): the Jager-Ciavarella loop integral does not hold",
-            {"rate": worst, "P_reduced": [r.P for r in reds]})
-    return worst
+    red0, red = reduced_solutions(normal, loads)
+    q0 = checked_state(normal, mu, Q0, None, red0, float(loads[0]), None)
+    return checked_state(normal, mu, Q, Q0, red, float(loads[1]), q0)

@@ -10,8 +10,8 @@ import pytest
 from scipy.special import beta
 
 import analytic
+from analytic import fretting, stick
 from analytic import profiles as pr
-from analytic import stick
 from analytic.errors import ConvergenceError, InputError
 
 A, R, P, MU = 1.0, 1.0, 0.5, 0.3
@@ -122,20 +122,20 @@ def test_slip_and_stick_zones_tile_the_contact(hertz) -> None:
 def test_inadmissible_reduced_pressure_is_refused(hertz) -> None:
     sharp = analytic.solve_normal(pr.cylinder(0.02), 0.25, A)  # narrow, tall: p_S > 2 p
     with pytest.raises(ConvergenceError, match=r"violates \|q\| <= mu p") as err:
-        stick._state(hertz, MU, 0.075, None, sharp, 0.25, None)
+        stick.checked_state(hertz, MU, 0.075, None, sharp, 0.25, None)
     assert err.value.diagnostics["residuals"]["friction"] > stick.FRICTION_TOL
 
 
 def test_wrong_reduced_load_breaks_equilibrium(hertz) -> None:
     red = analytic.solve_normal(pr.cylinder(R), 0.3, A)
     with pytest.raises(ConvergenceError, match="int q = Q"):
-        stick._state(hertz, MU, 0.05, None, red, 0.3, None)
+        stick.checked_state(hertz, MU, 0.05, None, red, 0.3, None)
 
 
 def test_stick_zone_outside_the_contact_is_refused(hertz) -> None:
     red = analytic.solve_normal(pr.cylinder(R, center=2.0), 0.3, A)
     with pytest.raises(ConvergenceError, match="outside every contact zone"):
-        stick._state(hertz, MU, 0.06, None, red, 0.3, None)
+        stick.checked_state(hertz, MU, 0.06, None, red, 0.3, None)
 
 
 # ------------------------------------------------------------------------------ helpers
@@ -150,7 +150,7 @@ def test_cosine_rule_handles_square_root_edges(f, exact: float) -> None:
 
 
 def test_cycle_samples_share_the_reduced_loads() -> None:
-    Q, stage, frac = stick._cycle_loads(1.0, 100)
+    Q, stage, frac = fretting._cycle_loads(1.0, 100)
     assert Q.size == 100 and Q[0] == 0
     assert list(np.bincount(stage)[2:]) == [34, 33, 33]
     assert Q[stage == 2][-1] == 1.0 and Q[stage == 3][-1] == -1.0 and Q[-1] == 1.0
@@ -165,4 +165,4 @@ def test_cycle_layout_and_mirror_symmetry(hertz) -> None:
     assert np.array_equal(up, down)
     assert np.array_equal(cy.Q[cy.stage == 3], -cy.Q[cy.stage == 4])
     assert cy.W_total == sum(cy.W) and cy.W[0] > 0
-    assert cy.residuals["rate"] <= stick.RATE_TOL
+    assert cy.residuals["rate"] <= fretting.RATE_TOL
