@@ -84,13 +84,38 @@ def test_hertz_converges_under_refinement():
     assert errs[2] < errs[1] < errs[0]
 
 
+#: Window half-width and fine margin that put a node exactly on x = +-a at every level: the fine
+#: nodes are -1.25 c + k c / (24 2**level), and a = 0.75 c is one of them.
+EDGE_ON_NODE_WINDOW = (-A_HERTZ / 0.75, A_HERTZ / 0.75)
+EDGE_ON_NODE_MARGIN = 0.125
+#: Observed order of the whole-zone pressure L2 error with the edge on a node, levels 1-3: theory
+#: 1 (the nodal error of the sqrt edge's element, ~p0 sqrt(h/a) over a length h, dominates);
+#: measured 0.99 (errors 1.06e-2, 5.28e-3, 2.69e-3).
+FULL_ORDER_MIN = 0.9
+#: ... and of the interior (|x| < INTERIOR a) error: measured 1.39 (2.30e-4, 9.52e-5, 3.34e-5).
+INTERIOR_ORDER_MIN = 1.0
+
+
 @pytest.mark.slow
 def test_hertz_observed_order():
-    """Observed order of the pressure L2 error over levels 1-3 (theory ~1: sqrt edge)."""
-    errs = [pressure_l2(solve(level=lv).steps[-1]) for lv in (1, 2, 3)]
-    order = np.log2(errs[0] / errs[2]) / 2
-    print(f"pressure L2 errors {errs}, observed order {order:.2f}")
-    assert order > 0.5
+    """Observed orders of the pressure L2 error over levels 1-3, with the contact edge held on a
+    node at every level.  On the default window the edge falls at a different place inside its
+    element at each level, and the whole-zone error, dominated by the one or two nodes next to
+    the edge, swings with that phase: 2.87e-3, 4.42e-3, 1.90e-3 at levels 1-3 (an apparent order
+    0.30), while error / (h/a) stays within 0.06-0.33 over levels 0-4.  Holding the phase fixed
+    measures the order itself."""
+    full, interior = [], []
+    for level in (1, 2, 3):
+        mesh = fem.MeshSpec(level=level, margin=EDGE_ON_NODE_MARGIN)
+        s = fem.solve_history(hertz_gap, P, 0.0, MU, E, NU, window=EDGE_ON_NODE_WINDOW, mesh=mesh,
+                              increments=fem.LoadPath(n_normal=4)).steps[-1]
+        assert np.min(np.abs(s.interface.x - A_HERTZ)) < 1e-12 * A_HERTZ  # the edge is a node
+        full.append(pressure_l2(s))
+        interior.append(pressure_l2(s, inside=INTERIOR))
+    orders = [np.log2(e[0] / e[2]) / 2 for e in (full, interior)]
+    print(f"pressure L2 errors {full} (interior {interior}), observed orders {orders}")
+    assert orders[0] > FULL_ORDER_MIN
+    assert orders[1] > INTERIOR_ORDER_MIN
 
 
 @pytest.mark.slow
