@@ -16,6 +16,7 @@ disagreement: ``bem_unresolved`` (the BEM's two resolutions disagree on the zone
 from __future__ import annotations
 
 import json
+import multiprocessing
 import resource
 import signal
 import time
@@ -38,7 +39,11 @@ CASE_TIME_LIMIT = 120.0
 a loaded machine does not turn slow cases into failures (solves take < 1 s typically; the
 slowest of the first 100 audit cases took ~25 s of CPU)."""
 WORKER_MEMORY = 4 * 2**30
-"""Address-space limit of a worker process [bytes] (a runaway solve once exhausted memory)."""
+"""Address-space limit of a worker process [bytes] (a runaway solve once exhausted memory).
+Workers start from a fresh interpreter (forkserver), so the limit is the worker's own: a forked
+worker would inherit the caller's address space (a test session that ran FE studies first left
+a worker of the 500-case audit short of memory)."""
+WORKER_START = "forkserver"
 INCONCLUSIVE = ("bem_unresolved", "no_reference")
 
 
@@ -187,7 +192,8 @@ def run_audit(seeds: list[int], jobs: int = 1, n_bem: int = checks.BEM_N,
     """Audit every seed in ``jobs`` worker processes; results in seed order, each passed to
     ``report`` as it arrives."""
     out = []
-    with ProcessPoolExecutor(max_workers=jobs, initializer=_limit_memory) as pool:
+    ctx = multiprocessing.get_context(WORKER_START)
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_limit_memory) as pool:
         for result in pool.map(audit_seed, seeds, [n_bem] * len(seeds)):
             if report is not None:
                 report(result)

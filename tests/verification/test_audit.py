@@ -96,3 +96,17 @@ def test_audit_500_cases(tmp_path: Path) -> None:
     open_seeds = {s for s, r in REGRESSIONS.items() if r["open"]}
     unknown = [r for r in results if r.disagrees and r.seed not in open_seeds]
     assert not unknown, "\n".join(line for r in unknown for line in (r.case, *r.findings))
+
+
+def test_audit_workers_own_their_memory_limit() -> None:
+    """A worker's address-space limit (run.WORKER_MEMORY) is its own, whatever the caller holds:
+    with forked workers, a caller already past the limit (a test session after FE studies) left
+    the 500-case run's workers short of memory."""
+    import numpy as np
+
+    reserved = np.empty(run.WORKER_MEMORY + 2**29, dtype=np.uint8)  # address space, never touched
+    try:
+        (result,) = run.run_audit([0], jobs=1)
+    finally:
+        del reserved
+    _assert_agrees(result)
