@@ -35,11 +35,7 @@ def stick_cycle_figure(res: CaseResult) -> bytes | None:
     if res.case.Q0 == 0:
         return None
     Q0 = res.case.Q0
-    cyc = analytic_cycle(res)
-    keep = cyc.stage <= 3  # the FE history covers stages 2 and 3
-    t_an = np.array([cycle_parameter(st, q, Q0)
-                     for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
-    edges = cyc.stick_edges[keep]  # nan where a zone is in full slip
+    t_an, edges = analytic_stick_edges(res)
     fig, ax = plt.subplots(figsize=(7.5, 3.8))
     for k, (a, b) in enumerate(res.analytic.normal.zones):
         for j in (0, 1):
@@ -62,6 +58,16 @@ def analytic_cycle(res: CaseResult):
     normal, mu, Q0 = res.analytic.normal, res.case.mu, res.case.Q0
     return memo(normal, ("cycle", mu, Q0, CYCLE_POINTS),
                 lambda: analytic.cycle(normal, mu, Q0, n=3 * CYCLE_POINTS + 1))
+
+
+def analytic_stick_edges(res: CaseResult) -> tuple[np.ndarray, np.ndarray]:
+    """The analytic cycle's stages 2 and 3 (those the FE history covers): each sample's
+    :func:`cycle_parameter` and its stick edges (n, zones, 2; nan where a zone is in full slip)."""
+    cyc = analytic_cycle(res)
+    keep = cyc.stage <= 3
+    t = np.array([cycle_parameter(st, q, res.case.Q0)
+                  for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
+    return t, cyc.stick_edges[keep]
 
 
 def cycle_parameter(stage: int, Q: float, Q0: float) -> float:

@@ -19,7 +19,7 @@ from matplotlib.tri import Triangulation  # noqa: E402
 
 import analytic  # noqa: E402
 from compare import stress as cs  # noqa: E402
-from compare.report.figures import analytic_cycle, cycle_parameter, png  # noqa: E402
+from compare.report.figures import analytic_stick_edges, png  # noqa: E402
 from compare.run import CaseResult  # noqa: E402
 
 CONTOUR_LEVELS = 21
@@ -86,16 +86,13 @@ def ruiz_figure(res: CaseResult) -> bytes | None:
     if res.case.Q0 == 0:
         return None
     normal, Q0 = res.analytic.normal, res.case.Q0
-    cyc = analytic_cycle(res)
-    keep = cyc.stage <= 3
-    t = np.array([cycle_parameter(st, q, Q0)
-                  for st, q in zip(cyc.stage[keep], cyc.Q[keep], strict=True)])
+    t, edges = analytic_stick_edges(res)
     rz = analytic.ruiz(analytic.solve_stick(normal, res.case.mu, -Q0, Q0, allow_full_slip=True))
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharey=True,
                              gridspec_kw={"width_ratios": [3, 2]})
     for k, (a, b) in enumerate(normal.zones):
         for j in (0, 1):
-            axes[0].plot(t, cyc.stick_edges[keep][:, k, j], "k-", lw=1.1)
+            axes[0].plot(t, edges[:, k, j], "k-", lw=1.1)
         for ax in axes:
             ax.axhspan(a, b, color="0.92", zorder=0)
     axes[0].set(xlabel="load parameter (1: Q = Q0, 2: Q = -Q0)", ylabel="x",
