@@ -180,13 +180,8 @@ def regular(x: np.ndarray, zones, points, factor: float = 1.0) -> np.ndarray:
     """Surface points outside ``factor`` x the STRESS_EXCLUSION discs of the singular points."""
     keep = np.ones(x.shape, bool)
     for s in points:
-        keep &= np.abs(x - s) > factor * STRESS_EXCLUSION * _zone_width_at(zones, s)
+        keep &= np.abs(x - s) > factor * STRESS_EXCLUSION * mt.zone_width_at(zones, s)
     return keep
-
-
-def _zone_width_at(zones, x: float) -> float:
-    w = [b - a for a, b in zones if a - 1e-12 <= x <= b + 1e-12]
-    return w[0] if w else min(b - a for a, b in zones)
 
 
 def zone_peaks(xa, sa, xf, sf, zones, points) -> list[tuple[float, float, float, float]]:
