@@ -54,17 +54,11 @@ for k, job in enumerate(json.loads(sys.stdin.read())):
 """
 
 
-def render_bodies(vtu: Path, out_png: Path, region: tuple[float, float, float, float]
-                  ) -> tuple[bool, str]:
-    """Render ``vtu`` (bodies of one step) into ``out_png`` with a frame around ``region``
-    (xmin, xmax, ymin, ymax); returns (ok, reason-if-not)."""
-    return render_many([(vtu, out_png, region)])[0]
-
-
 def render_many(jobs: list[tuple[Path, Path, tuple[float, float, float, float]]]
                 ) -> list[tuple[bool, str]]:
-    """:func:`render_bodies` for several pictures in one child process (pyvista is imported
-    once: ~1 s per picture saved); returns (ok, reason-if-not) per job."""
+    """Render each job's ``vtu`` (bodies of one step) into its ``out_png`` with a frame around
+    its ``region`` (xmin, xmax, ymin, ymax), all in one child process (pyvista is imported once:
+    ~1 s per picture saved); returns (ok, reason-if-not) per job."""
     if not jobs:
         return []
     spec = json.dumps([[str(v), str(o), *map(float, r)] for v, o, r in jobs])
