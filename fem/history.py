@@ -203,7 +203,8 @@ def build_model(
     far = None
     if disc.boundary == "half-plane":
         far = lift(disc, factor, free, x[cand])
-        C = C + (far.fields[free][f1] - far.fields[free][f2]) @ far.R
+        lifted = far.fields[free]
+        C = C + (lifted[f1] - lifted[f2]) @ far.R
     timings["factorisation+condensation"] = time.perf_counter() - t0
     prob = InterfaceProblem(
         C=C,
