@@ -117,18 +117,8 @@ class ConvergenceStudy:
                     f"width over the penalty range (<= {PENALTY_EDGE_SHIFT:g})")
         if self.converges:
             return "converges: True"
-        return f"converges: False -- {self.stall or self._why_not()}"
-
-    def _why_not(self) -> str:
-        if self.kind == "penalty":
-            return (f"the FE edges move by {self.edge_shift:.2e} of the zone width over the "
-                    f"penalty range (> {PENALTY_EDGE_SHIFT:g})")
-        order = self.orders["pressure_l2_error"]
-        if not order >= MIN_ORDER:
-            return f"pressure L2 order {order:.2f} < {MIN_ORDER}"
-        grew = [m for m in TRACKED if _finite_pair(self.errors[m])
-                and self.errors[m][-1] >= self.errors[m][0]]
-        return "error not smaller at the finest run: " + ", ".join(grew)
+        return "converges: False -- " + _failure(self.orders, self.errors, self.stall, self.kind,
+                                                 self.edge_shift)
 
     def summary(self) -> dict:
         return {"case": self.case_name, "kind": self.kind, "values": _clean(self.values),
@@ -207,14 +197,21 @@ def stall_of(kind: str, values: Sequence, local: dict, errors: dict) -> str:
     return f"stalls at {name} {values[-1]:g}: " + ", ".join(bad) if bad else ""
 
 
-def _converges(st_orders: dict, errors: dict, stall: str, kind: str, shift: float) -> bool:
+def _failure(orders: dict, errors: dict, stall: str, kind: str, shift: float) -> str:
+    """'' when the study converges, else why not: penalty studies by PENALTY_EDGE_SHIFT; h and
+    domain studies by the stall (STALL_ORDER), the pressure order (MIN_ORDER) and errors that
+    must be smaller at the finest run than at the first."""
     if kind == "penalty":
-        return bool(shift <= PENALTY_EDGE_SHIFT)
+        return "" if shift <= PENALTY_EDGE_SHIFT else (
+            f"the FE edges move by {shift:.2e} of the zone width over the penalty range "
+            f"(> {PENALTY_EDGE_SHIFT:g})")
     if stall:
-        return False
-    finite = [m for m in TRACKED if _finite_pair(errors[m])]
-    return bool(st_orders["pressure_l2_error"] >= MIN_ORDER) and all(
-        errors[m][-1] < errors[m][0] for m in finite)
+        return stall
+    order = orders["pressure_l2_error"]
+    if not order >= MIN_ORDER:
+        return f"pressure L2 order {order:.2f} < {MIN_ORDER}"
+    grew = [m for m in TRACKED if _finite_pair(errors[m]) and errors[m][-1] >= errors[m][0]]
+    return "error not smaller at the finest run: " + ", ".join(grew) if grew else ""
 
 
 def _values(kind: str, levels: Sequence[int], values: Sequence[float] | None) -> list:
@@ -272,7 +269,7 @@ def assemble(name: str, kind: str, values: Sequence, parameter: Sequence[float],
         name, kind, tuple(values), tuple(parameter), errors, orders, local,
         {m: mt.error_ratios(e) for m, e in errors.items()}, expected, stall,
         tuple(map(tuple, edges)), tuple(an_edges), tuple(rich), reason, rich_err,
-        shift, _converges(orders, errors, stall, kind, shift), tuple(timings))
+        shift, not _failure(orders, errors, stall, kind, shift), tuple(timings))
 
 
 def convergence_text(st: ConvergenceStudy) -> str:
