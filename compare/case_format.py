@@ -12,7 +12,7 @@ case library.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -42,9 +42,6 @@ TOP_KEYS = {"name", "description", "profile", "material", "load", "samples", "fe
 MATERIAL_KEYS = {"E": REQUIRED, "nu": REQUIRED, "A": None}
 LOAD_KEYS = {"P": REQUIRED, "mu": REQUIRED, "Q0": None, "Q0_ratio": None, "M": None}
 SAMPLE_KEYS = {"stage2": [0.5, 0.75, 1.0], "stage3": [0.0, -0.5, -1.0]}
-FEM_KEYS = {"level": 1, "order": 1, "mesh_file": "", "penalty_factor": 100.0,
-            "augmented": False, "n_normal": 10, "n_tangential": 8, "size_factor": 8.0,
-            "window_margin": 0.05, "growth": 1.2}
 #: Allowed ranges of the numeric FE settings (test, what is allowed).
 FEM_RANGES = {
     "level": (lambda v: -3 <= v <= 6, "-3 <= level <= 6"),
@@ -83,6 +80,9 @@ class FemSettings:
     window_margin: float = 0.05
     growth: float = 1.2
 
+
+#: The ``[fem]`` keys and their defaults (the type of a value follows its default).
+FEM_KEYS = {f.name: f.default for f in fields(FemSettings)}
 
 
 # ---------------------------------------------------------------------------------------------
