@@ -16,14 +16,14 @@ import signal
 import threading
 import time
 from collections import Counter, deque
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor
 from concurrent.futures import wait as futures_wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from compare.errors import SweepError
-from compare.sweep.tasks import infrastructure_failure
+from compare.sweep.tasks import execute, infrastructure_failure
 
 #: A case whose worker process died this many times is recorded as failed (local pool).
 MAX_WORKER_DEATHS = 2
@@ -53,14 +53,6 @@ class StopFlag:
 
     def __bool__(self) -> bool:
         return self.signum is not None
-
-
-def _task_fn() -> Callable[[dict], dict]:
-    """``execute`` by its importable name, never ``__main__.execute``: the pool and dask
-    workers unpickle it by that name, which they can import."""
-    import importlib
-
-    return importlib.import_module("compare.sweep.tasks").execute
 
 
 #: Seconds between a worker's checks that the coordinating process is still alive.
@@ -153,7 +145,7 @@ def run_local(tasks: list[dict], workers: int, stop: StopFlag) -> Iterator[dict]
             while (queue or inflight) and not stop:
                 while queue and len(inflight) < workers:
                     t = queue.popleft()
-                    inflight[pool.submit(_task_fn(), t)] = t
+                    inflight[pool.submit(execute, t)] = t
                 done, _ = futures_wait(inflight, timeout=POLL_S, return_when=FIRST_COMPLETED)
                 for fut in done:
                     t = inflight.pop(fut)
@@ -209,7 +201,7 @@ def run_dask(tasks: list[dict], client, stop: StopFlag) -> Iterator[dict]:
     """
     distributed = _dask()
     by_key = {f"multicontact-sweep-{t['key']}": t for t in tasks}
-    futs = [client.submit(_task_fn(), t, key=k, pure=False) for k, t in by_key.items()]
+    futs = [client.submit(execute, t, key=k, pure=False) for k, t in by_key.items()]
     ac = distributed.as_completed(futs)
     try:
         while not ac.is_empty() and not stop:
