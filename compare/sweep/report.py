@@ -394,9 +394,6 @@ def _swap_in(tmp: Path, out: Path) -> None:
 def write_sweep_report(directory: str | Path, out: str | Path | None = None) -> Path:
     """Write the report of a sweep directory (default into ``DIR/report``); return its path."""
     directory = Path(directory)
-    if not (directory / "sweep.json").is_file():
-        raise SweepError(f"{directory} is not a sweep directory: no sweep.json "
-                         "(run `multicontact sweep STUDY -o DIR` first)")
     man, rows = sweep_rows(directory)
     figs = figures(man, rows)
     summ = summary(man, rows)

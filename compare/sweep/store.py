@@ -44,9 +44,11 @@ def read_records(directory: str | Path) -> dict[str, dict]:
 
 
 def read_manifest(directory: str | Path) -> dict:
+    """``DIR/sweep.json`` (SweepError naming the directory when it is not a sweep's)."""
     path = Path(directory) / MANIFEST_FILE
     if not path.is_file():
-        raise SweepError(f"{directory} is not a sweep directory: no {MANIFEST_FILE}")
+        raise SweepError(f"{directory} is not a sweep directory: no {MANIFEST_FILE} "
+                         "(run `multicontact sweep STUDY -o DIR` first)")
     return json.loads(path.read_text(encoding="utf-8"))
 
 

@@ -173,3 +173,13 @@ def test_records_are_plain_json():
                         "d": np.bool_(True)})
     assert out == {"a": 1.5, "b": None, "c": [2, None], "d": True}
     json.dumps(out, allow_nan=False)
+
+
+def test_report_of_a_directory_that_is_not_a_sweep_says_what_to_run(tmp_path):
+    from compare.errors import SweepError
+    from compare.sweep.report import write_sweep_report
+
+    hint = r"not a sweep directory: no sweep\.json \(run `multicontact sweep STUDY -o DIR` first\)"
+    with pytest.raises(SweepError, match=hint):
+        write_sweep_report(tmp_path)
+    assert list(tmp_path.iterdir()) == []
