@@ -146,7 +146,9 @@ def cmd_verify(args) -> int:
     from compare.testing import format_checks
     from compare.verify import verify, write_verify_report
 
-    res = verify(args.case, args.result, samples=args.samples, settings=_settings(args.set))
+    if len(args.result) > 1:
+        return _verify_sequence(args)
+    res = verify(args.case, args.result[0], samples=args.samples, settings=_settings(args.set))
     report = write_verify_report(res, args.out) if args.out else None
     if args.json:
         _print_json(res.summary() | ({"index": report["index"]} if report else {}))
@@ -158,6 +160,27 @@ def cmd_verify(args) -> int:
     if report:
         print(f"report written: {report['index']}")
     return EXIT_OK if res.passed else EXIT_FAIL
+
+
+def _verify_sequence(args) -> int:
+    """``verify CASE R1 R2 ...``: the results as a mesh sequence (compare.verify_sequence); the
+    report (-o) shows our own FE's h-convergence (--fem-levels) on the same axes."""
+    from compare.convergence import convergence
+    from compare.verify_sequence import sequence_text, verify_convergence, write_sequence_report
+
+    seq = verify_convergence(args.case, args.result, samples=args.samples,
+                             settings=_settings(args.set))
+    report = None
+    if args.out:
+        ours = convergence(_case(args, args.case), levels=args.fem_levels)
+        report = write_sequence_report(seq, args.out, reference=ours)
+    if args.json:
+        _print_json(seq.summary() | ({"index": report["index"]} if report else {}))
+    else:
+        print(sequence_text(seq))
+        if report:
+            print(f"report written: {report['index']}")
+    return EXIT_OK if seq.converges else EXIT_FAIL
 
 
 def cmd_converge(args) -> int:
@@ -230,12 +253,18 @@ def parser() -> argparse.ArgumentParser:
     sp = add("verify", cmd_verify, "verify an external FE result (docs/external.md) against the "
              "analytic solution; exit 1 if a tolerance fails")
     sp.add_argument("case", help="library case name or .toml path")
-    sp.add_argument("result", help="steps.csv manifest, folder of step files, or .pvd series")
+    sp.add_argument("result", nargs="+",
+                    help="steps.csv manifest, folder of step files, or .pvd series; several: "
+                         "results of one code at several resolutions, verified as a mesh "
+                         "sequence (orders, stall, grid convergence index)")
     sp.add_argument("-o", "--out", help="write the report pages into this folder")
     sp.add_argument("--samples", choices=("steps", "case"), default="steps",
                     help="compare at every stage-2/3 step (default) or at the case's samples")
     sp.add_argument("--set", action="append", metavar="KEY=VALUE",
                     help="override a header item (convention or meta data), repeatable")
+    sp.add_argument("--fem-levels", type=int, nargs="+", default=[0, 1, 2],
+                    help="a sequence's report: levels of our own FE's convergence study drawn "
+                         "beside it (default 0 1 2)")
     sp = add("converge", cmd_converge, "convergence study (h, penalty or domain size)")
     sp.add_argument("case")
     sp.add_argument("--kind", choices=("h", "penalty", "domain"), default="h")

@@ -170,30 +170,33 @@ def _parameter(kind: str, res: CaseResult) -> float:
     return 1.0 / res.case.fem.size_factor
 
 
-def _paired_edges(res: CaseResult) -> list[float]:
+def paired_edges(res: CaseResult) -> list[float]:
+    """The FE contact edges at the end of stage 1, each the one nearest an analytic edge
+    (a1, b1, a2, ... in the order of the analytic zones)."""
     fe = list(res.fem.stage(1)[-1].contact_zones)
     lefts, rights = [z[0] for z in fe], [z[1] for z in fe]
     return [e for a, b in res.analytic.normal.zones
             for e in (mt.nearest(lefts, a), mt.nearest(rights, b))]
 
 
-def _richardson(edges: np.ndarray, kind: str) -> tuple[np.ndarray, str]:
+def _richardson(edges: np.ndarray, kind: str, ratio: float = 2.0) -> tuple[np.ndarray, str]:
     """Per edge the extrapolated value (nan where refused) and the reasons of the refusals."""
     if kind != "h":
         return np.full(edges.shape[1], np.nan), "only for h-refinement"
-    out = [mt.richardson_check(edges[:, j]) for j in range(edges.shape[1])]
+    out = [mt.richardson_check(edges[:, j], ratio) for j in range(edges.shape[1])]
     reasons = sorted({f"edge {j}: {r}" for j, (_, _, r) in enumerate(out) if r})
     return np.array([v for v, _, _ in out]), "; ".join(reasons)
 
 
-def stall_of(kind: str, values: Sequence, local: dict, errors: dict) -> str:
-    """'' or 'stalls at <level>: metric e1 -> e2 (order p), ...' for the last refinement."""
+def stall_of(kind: str, values: Sequence, local: dict, errors: dict, label: str = "") -> str:
+    """'' or 'stalls at <level>: metric e1 -> e2 (order p), ...' for the last refinement
+    (``label``: what the values are, default 'level' / 'size factor' by kind)."""
     if kind == "penalty" or len(values) < 2:
         return ""
     bad = [f"{m} {errors[m][-2]:.3g} -> {errors[m][-1]:.3g} (order {local[m][-1]:.2f})"
            for m in TRACKED if np.isfinite(local[m][-1]) and local[m][-1] < STALL_ORDER
            and errors[m][-1] > STALL_FLOOR]
-    name = {"h": "level", "domain": "size factor"}[kind]
+    name = label or {"h": "level", "domain": "size factor"}[kind]
     return f"stalls at {name} {values[-1]:g}: " + ", ".join(bad) if bad else ""
 
 
@@ -244,25 +247,28 @@ def convergence(case: Case | str, levels: Sequence[int] = (0, 1, 2), kind: str =
             progress(i + 1, len(vals))
     par = [_parameter(kind, r) for r in runs]
     errors = {m: [float(r.metrics.get(m, np.nan)) for r in runs] for m in TRACKED}
-    return assemble(case.name, kind, vals, par, errors, [_paired_edges(r) for r in runs],
+    return assemble(case.name, kind, vals, par, errors, [paired_edges(r) for r in runs],
                     an.normal.zones, case.fem.order,
                     [sum(r.timings.values()) for r in runs])
 
 
 def assemble(name: str, kind: str, values: Sequence, parameter: Sequence[float], errors: dict,
              fem_edges: Sequence[Sequence[float]], zones: Sequence[tuple[float, float]],
-             order: int = 1, timings: Sequence[float] = ()) -> ConvergenceStudy:
+             order: int = 1, timings: Sequence[float] = (), label: str = "",
+             ratio: float = 2.0) -> ConvergenceStudy:
     """The study from its runs' errors (metric -> list) and FE edges (per run, paired with the
-    analytic ``zones`` as a1, b1, a2, ...): orders, ratios, stall, Richardson, verdict."""
+    analytic ``zones`` as a1, b1, a2, ...): orders, ratios, stall, Richardson, verdict.
+    ``label`` names the values in the stall message (:func:`stall_of`); ``ratio`` is the
+    refinement ratio of Richardson's extrapolation."""
     orders = {m: mt.observed_order(parameter, e) for m, e in errors.items()}
     local = {m: mt.local_orders(parameter, e) for m, e in errors.items()}
     edges = np.asarray(fem_edges, float)
     an_edges = np.array([e for z in zones for e in z])
     widths = np.repeat([b - a for a, b in zones], 2)
-    rich, reason = _richardson(edges, kind)
+    rich, reason = _richardson(edges, kind, ratio)
     rich_err = float(np.max(np.abs(rich - an_edges) / widths)) if np.all(np.isfinite(rich)) \
         else float("nan")
-    stall = stall_of(kind, values, local, errors)
+    stall = stall_of(kind, values, local, errors, label)
     shift = float(np.max(np.abs(edges - edges[-1]) / widths))
     expected = {m: EXPECTED_ORDERS[m][order] for m in TRACKED} if kind == "h" else {}
     return ConvergenceStudy(
