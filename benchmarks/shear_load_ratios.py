@@ -12,7 +12,7 @@ sampled Q (stage 2: Q/Q0 = 0.5, 0.75, 1; stage 3: 0, -0.5, -1) in two normalisat
 
 and ``||q_an|| / (mu ||p||)``, which says where the relative form divides by a small number.
 The worst sample per run is the ``shear_l2_error`` the tolerance (compare.tolerances.SHEAR_RTOL)
-bounds.  Re-run it when the FE mesh changes; the measured table is in docs/tolerances.md.
+bounds.  Re-run it when the FE mesh changes; the measured table is in docs/conventions.md.
 
 With ``--library`` it runs every library case with Q0 > 0 at its default level instead (the
 smallest zone's elements in the third column).

@@ -16,8 +16,9 @@ import numpy as np
 #: p ~ 1/sqrt; profile kink inside a zone: p ~ log) are left out of the traction errors: a
 #: nodal value cannot represent an unbounded traction, and the L2 norm of 1/sqrt diverges.
 SINGULAR_EXCLUSION = 0.03
-#: Floor of the shear-error denominator, as a fraction of mu ||p||: the analytic shear passes
-#: through small norms (e.g. early in stage 2), where a relative error would be meaningless.
+#: Floor of the Jaeger-Ciavarella error's denominator (compare.run.jc_error), as a fraction of
+#: mu ||p||: the shear passes through small norms (e.g. early in stage 2), where a relative error
+#: would be meaningless.  (The shear error itself is in units of mu ||p||: bounded_l2.)
 SHEAR_FLOOR = 0.1
 
 Zone = tuple[float, float]
@@ -104,6 +105,12 @@ def relative_l2(fe: np.ndarray, an: np.ndarray, w: np.ndarray, floor: float = 0.
     """``||fe - an|| / max(||an||, floor)`` (nan when both norms vanish)."""
     den = max(l2(an, w), floor)
     return l2(fe - an, w) / den if den > 0 else float("nan")
+
+
+def bounded_l2(fe: np.ndarray, an: np.ndarray, w: np.ndarray, bound: float) -> float:
+    """``||fe - an|| / bound`` (nan when ``bound`` is 0): an error in units of a fixed scale,
+    e.g. the shear error in units of the Coulomb bound ``mu ||p||``."""
+    return l2(fe - an, w) / bound if bound > 0 else float("nan")
 
 
 def relative_max(fe: np.ndarray, an: np.ndarray) -> float:

@@ -9,8 +9,10 @@ Metrics (all dimensionless; ``CaseResult.metrics`` is a flat dict of floats):
 - ``moment_error``: |M_fe - M_an| / (P * contact span) (vertical indentation) or
   ``rotation_error`` |theta_fe - theta_an| / |theta_an| (applied moment);
 - ``stick_edge_error_max`` / ``shear_l2_error``: max over the sampled Q of stages 2 and 3 of
-  the stick-edge error relative to the contact-zone width and the floored relative L2 shear
-  error (metrics.SHEAR_FLOOR);
+  the stick-edge error relative to the contact-zone width and of the L2 shear error in units of
+  the Coulomb bound, ||q_fe - q_an|| / (mu ||p_an||) (|q| <= mu p: the largest ||q|| any sample
+  can have; relative to ||q_an|| the error blew up where q is small, e.g. at the stage-3
+  reversal Q = 0, issue 25; benchmarks/shear_load_ratios.py);
 - ``uncoupling_error``: max over stages 2-3 of ||p_fe(Q) - p_fe(0)|| / ||p_fe(0)||;
 - ``jc_error``: FE shear against mu [p_fe(P0) - p_fe(P*)] built from FE normal solutions;
 - ``zone_count_mismatch`` and ``full_slip_mismatches``: counts that must be 0;
@@ -177,8 +179,9 @@ def _sample_row(case: Case, an: AnalyticResult, hist: fem.FemHistory, st: StickS
     errs = [mt.stick_edge_error(s_an, s_fe, b - a)
             for (a, b), s_an, s_fe in zip(ns.zones, st.stick_zones, fe_sticks, strict=True)]
     it = step.interface
-    floor = mt.SHEAR_FLOOR * case.mu * mt.l2(ns.pressure(it.x[keep]), it.w[keep])
-    q_l2 = mt.traction_errors(it.x, it.w, it.q, st.shear, keep, floor)[0]
+    x, w = it.x[keep], it.w[keep]
+    q_l2 = mt.bounded_l2(it.q[keep], np.asarray(st.shear(x), float), w,
+                         case.mu * mt.l2(ns.pressure(x), w))
     mismatch = sum((a is None) != (f is None) for a, f in zip(st.stick_zones, fe_sticks,
                                                              strict=True))
     return {"stage": st.stage, "Q": st.Q, "Q_over_Q0": st.Q / case.Q0,

@@ -27,11 +27,15 @@ STICK_RTOL = 0.01
 #: levels 0/1/2; library <= 1.19 % (punch_cylinder_moment; sharp_punch 3.3/1.9/0.9 % at levels
 #: 0/1/2, hence its level 2: the 1/sqrt corners next to the excluded nodes).
 PRESSURE_RTOL = 0.02
-#: Relative L2 shear error (floored, metrics.SHEAR_FLOOR): kinks at the stick edges and sqrt slip
-#: ends, order ~1: Cattaneo 3.1 % at level 1; the worst sample is the stage-3 reversal (Q = 0),
-#: where the floor (0.1 mu ||p||) is the denominator; library <= 4.5 % at default levels
-#: (rounded_punch level 2; applied_moment needs level 3: 5.5/6.3/3.8 % at levels 1/2/3).
-SHEAR_RTOL = 0.05
+#: L2 shear error in units of the Coulomb bound, ||q_fe - q_an|| / (mu ||p||) (compare.run): kinks
+#: at the stick edges and sqrt slip ends, order ~1, nearly the same at every load ratio
+#: (benchmarks/shear_load_ratios.py, table in docs/conventions.md): Cattaneo at Q0/(mu P) =
+#: 0.2-0.95 <= 1.96/1.03/0.53/0.28 % at levels 0/1/2/3; library at default levels <= 1.19 %
+#: except rounded_punch 2.47 % (level 2: slip next to the kinks of its rounded corners).  3 % is
+#: the former 5 % of ||q_an|| at the load where it was set (Cattaneo, Q0 = 0.6 mu P: 5 % x 0.6),
+#: now the same at every sample; relative to ||q_an|| the error blew up where q is small (the
+#: stage-3 reversal Q = 0: Cattaneo level 1 failed it with 5.4 % at Q0 = 0.5 mu P, 8.4 % at 0.2).
+SHEAR_RTOL = 0.03
 #: Load share per zone (|F_fe - F_an| / P): follows the edge error, much smaller than it.
 LOAD_SHARE_ATOL = 0.02
 #: Moment error |M_fe - M_an| / (P * contact span) (vertical indentation).

@@ -33,6 +33,13 @@ def test_relative_l2_and_floor():
     assert mt.relative_l2(np.ones(4) * 1e-3, np.zeros(4), w, floor=1.0) == pytest.approx(2e-3)
 
 
+def test_bounded_l2_is_in_units_of_the_bound():
+    w = np.array([1.0, 2.0, 1.0])
+    fe, an = np.array([1.0, 2.0, 3.0]), np.array([1.0, 1.0, 1.0])
+    assert mt.bounded_l2(fe, an, w, 4.0) == pytest.approx(np.sqrt(2 + 4) / 4)
+    assert np.isnan(mt.bounded_l2(fe, an, w, 0.0))
+
+
 def test_observed_order_recovers_slope():
     h = np.array([0.1, 0.05, 0.025])
     assert mt.observed_order(h, 3 * h**1.5) == pytest.approx(1.5)

@@ -27,15 +27,18 @@ def test_stored_kratos_result_verifies():
     # M from reactions, stage-1 steps at the reduced loads: only the body stresses are missing
     assert set(res.unavailable) == set(STRESS_METRICS)
     # element a/23 (linear mortar ALM): edges, pressure, loads and JC agree; the stick edge
-    # (1.04 % of the width) and the shear (11.9 %) miss the tolerances our FE meets at level 0
-    # (issue 14: 1 %, 5%), and the verdict says so
+    # (1.04 % of the width) misses the tolerance our FE meets at level 0 (issue 14: 1 %), and the
+    # verdict says so.  The shear error, 2.44 % of mu ||p|| (our FE on the same mesh and steps:
+    # 1.99 %),
+    # is within the 3 % of issue 25 (it was 11.9 % of ||q||, dominated by the stage-3 reversal)
     assert {c.name for c in res.checks if not c.passed} == KRATOS_MISSES
-    with pytest.raises(DisagreementError, match="stick .* shear"):
+    assert res.metrics["shear_l2_error"] == pytest.approx(0.0244, abs=5e-4)
+    with pytest.raises(DisagreementError, match="stick"):
         assert_agrees(res)
 
 
 #: Checks the stored Kratos result (element a/23) fails at the default tolerances.
-KRATOS_MISSES = {"stick", "shear"}
+KRATOS_MISSES = {"stick"}
 
 
 @pytest.mark.slow
