@@ -8,6 +8,8 @@ Case.from_profile(profile, P, A=... or E=..., nu=..., mu=..., Q0=0, M=None, **fe
 run_case(case, vtk_dir=None) -> CaseResult (metrics, checks, zones, samples, passed)
 convergence(case, levels=(0, 1, 2), ...) -> ConvergenceStudy
 verify(case, result_path) -> CaseResult: an external FE result (docs/external.md) vs analytic
+verify_convergence(case, [path1, path2, ...]) -> SequenceVerification: one code's results at
+    several resolutions (observed orders, converges / stalls, grid convergence index)
 compare.testing.assert_agrees(result, edge_rtol=..., stick_rtol=..., pressure_rtol=...)
 compare.report.write_report(cases, out_dir, convergence_cases=None, fig5=True) -> summary dict
 CaseError: bad case input (CLI exit code 2).
@@ -18,7 +20,8 @@ from compare.convergence import ConvergenceStudy, convergence
 from compare.errors import CaseError
 from compare.run import CaseResult, Check, run_case
 from compare.verify import verify
+from compare.verify_sequence import SequenceVerification, verify_convergence
 
 __all__ = ["Case", "CaseError", "CaseResult", "Check", "ConvergenceStudy", "FemSettings",
-           "case_from_dict", "convergence", "list_cases", "load_case", "read_case", "run_case",
-           "verify"]
+           "SequenceVerification", "case_from_dict", "convergence", "list_cases", "load_case",
+           "read_case", "run_case", "verify", "verify_convergence"]
