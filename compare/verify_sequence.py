@@ -242,11 +242,13 @@ def _gci(edges: np.ndarray, zones: list, ratio: float, ratios: list[float], orde
 # text, figure, report
 # ---------------------------------------------------------------------------------------------
 def sequence_text(seq: SequenceVerification) -> str:
-    """Plain text: verdict, the results, errors with local and least-squares orders, GCI."""
+    """Plain text: verdict, the results (each with its single-result verdict on the named
+    tolerances), errors with local and least-squares orders, GCI."""
     st = seq.study
     lines = [f"{seq.case_name}: {seq.code}, {len(seq.h)} results: {seq.verdict()}"]
-    lines += [f"  result {k + 1}: {src} (h = {h:.4g})"
-              for k, (src, h) in enumerate(zip(seq.sources, seq.h, strict=True))]
+    lines += [f"  result {k + 1}: {r.source} (h = {h:.4g}): " + (
+              "agrees" if r.passed else "FAILS " + ", ".join(c.name for c in r.failures()))
+              for k, (r, h) in enumerate(zip(seq.results, seq.h, strict=True))]
     lines.append(f"  {'h':<22} " + " ".join(f"{v:10.4g}" for v in seq.h))
     for m, vals in st.errors.items():
         if not np.any(np.isfinite(vals)):
@@ -276,26 +278,32 @@ def sequence_figure(seq: SequenceVerification, reference: ConvergenceStudy | Non
     """One log-log panel per tracked error against h / (contact zone width): the sequence and,
     on the same axes, ``reference`` (our own FE's h-convergence study of the case)."""
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     from compare.report.figures import png
 
     width = min(b - a for a, b in seq.results[-1].analytic.normal.zones)
     fig, axes = plt.subplots(2, 2, figsize=(9, 6.5))
-    runs = [(seq.code, seq.h, seq.study, "o-")]
+    runs = [(f"{seq.code} (verified sequence)", seq.h, seq.study, "o-")]
     if reference is not None:
-        runs.append(("multicontact fem", reference.parameter, reference, "s--"))
+        levels = ", ".join(f"{v:g}" for v in reference.values)
+        runs.append((f"multicontact fem (levels {levels})", reference.parameter, reference, "s--"))
     for ax, m in zip(axes.flat, TRACKED, strict=True):
+        orders = []
         for name, h, st, style in runs:
             e, x = np.asarray(st.errors[m], float), np.asarray(h, float) / width
-            if np.any(np.isfinite(e) & (e > 0)):
-                ax.loglog(x, e, style, label=f"{name} (order {st.orders[m]:.2f})")
-        ax.set(title=SHORT[m], xlabel="h / contact zone width", ylabel="error")
-        ax.title.set_fontsize(9)
+            ax.loglog(x, np.where(e > 0, e, np.nan), style, label=name)
+            orders.append(f"{st.orders[m]:.2f}")
+        ax.set(xlabel="h / contact zone width", ylabel="error")
+        ax.set_title(f"{SHORT[m]}: order {' / '.join(orders)}", fontsize=9)
+        ticks = np.asarray(seq.h) / width
+        ax.set_xticks(ticks, [f"{t:.2g}" for t in ticks], fontsize=7)
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.grid(True, which="both", alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=7)
+    fig.legend(*axes.flat[0].get_legend_handles_labels(), loc="lower center", ncol=2,
+               fontsize=8)
     fig.suptitle(f"{seq.case_name}: {seq.code}: {seq.verdict()}"[:150], fontsize=8)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.05, 1, 0.97))
     return png(fig)
 
 
