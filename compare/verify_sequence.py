@@ -209,32 +209,51 @@ def _framed_edges(runs: list[CaseResult]) -> tuple[list[list[float]], list]:
     return out, list(zones)
 
 
+def grid_convergence_index(values: Sequence[float], ratio: float, scale: float,
+                           expected_order: float) -> tuple[float, float, float, float, str]:
+    """Roache's GCI of the finest of ``values`` (coarse to fine, refinement ratio ``ratio``),
+    divided by ``scale``: ``(gci, p, Fs, asymptotic, reason)``.
+
+    Three or more values: p observed from the three finest (:func:`metrics.richardson_check`,
+    refused outside RICHARDSON_ORDERS or for a non-monotone sequence), Fs = 1.25 and
+    ``asymptotic = GCI_23 / (r^p GCI_12)`` (1 for an exact power law); two values: p =
+    ``expected_order``, Fs = 3, asymptotic nan.  Refused (gci nan, ``reason`` says why) where
+    Richardson's extrapolation is; ``ratio`` nan (ratios not constant) is refused too.
+    """
+    f = np.asarray(values, float)
+    three = f.size >= 3
+    safety = GCI_SAFETY_OBSERVED if three else GCI_SAFETY_ASSUMED
+    nan = math.nan
+    if not math.isfinite(ratio):
+        return nan, nan, safety, nan, "the refinement ratio is not constant"
+    if three:
+        _, p, reason = mt.richardson_check(f, ratio)
+    else:
+        p, reason = expected_order, mt.richardson_check(f, ratio, order=expected_order)[2]
+    if reason:
+        return nan, float(p), safety, nan, reason
+    gci = safety * abs(f[-1] - f[-2]) / (ratio**p - 1.0) / scale
+    asym = nan
+    if three and gci > 0:
+        asym = safety * abs(f[-2] - f[-3]) / (ratio**p - 1.0) / scale / (ratio**p * gci)
+    return float(gci), float(p), safety, float(asym), ""
+
+
 def _gci(edges: np.ndarray, zones: list, ratio: float, ratios: list[float], order: int
          ) -> list[EdgeGCI]:
     names = [f"{s}{k + 1}" for k in range(len(zones)) for s in "ab"]
     an = [e for z in zones for e in z]
     widths = np.repeat([b - a for a, b in zones], 2)
-    three = edges.shape[0] >= 3
-    safety = GCI_SAFETY_OBSERVED if three else GCI_SAFETY_ASSUMED
+    expected = EXPECTED_ORDERS["edge_error_max"][order][0]
     out = []
     for j, name in enumerate(names):
-        f = edges[:, j]
-        err = abs(f[-1] - an[j]) / widths[j]
+        gci, p, safety, asym, reason = grid_convergence_index(edges[:, j], ratio, widths[j],
+                                                              expected)
         if not math.isfinite(ratio):
-            p, reason = math.nan, _ratio_reason(ratios)
-        elif three:
-            _, p, reason = mt.richardson_check(f, ratio)
-        else:
-            p = EXPECTED_ORDERS["edge_error_max"][order][0]
-            reason = mt.richardson_check(f, ratio, order=p)[2]
-        gci = asym = math.nan
-        if not reason:
-            gci = safety * abs(f[-1] - f[-2]) / (ratio**p - 1.0) / widths[j]
-            if three:
-                g23 = safety * abs(f[-2] - f[-3]) / (ratio**p - 1.0) / widths[j]
-                asym = g23 / (ratio**p * gci) if gci > 0 else math.nan
-        out.append(EdgeGCI(name, float(an[j]), float(f[-1]), float(p), safety, float(gci),
-                           float(err), bool(err <= gci), float(asym), reason))
+            reason = _ratio_reason(ratios)
+        err = abs(edges[-1, j] - an[j]) / widths[j]
+        out.append(EdgeGCI(name, float(an[j]), float(edges[-1, j]), p, safety, gci,
+                           float(err), bool(err <= gci), asym, reason))
     return out
 
 
