@@ -4,10 +4,13 @@ atomically (temporary file in the same directory, then ``os.replace``).
 
 Bodies: points = nodal dof locations (Q2 elements are split into 4 linear quads),
 point data ``displacement`` (3 components), ``stress`` (3x3 tensor, sigma_zz from
-plane strain), ``von_mises``, ``body`` (1 upper, 2 lower). Interface: points on y = 0
+plane strain), ``von_mises``, ``body`` (1 upper, 2 lower), stored in single precision
+(7 digits, for viewing; half the size of double: 4.8 instead of 8.6 MB for the 193e3-DOF
+applied-moment case) and zlib-compressed binary.  ``steps="ends"`` writes only the last step
+of each stage, the ones a person opens. Interface: points on y = 0
 with ``p``, ``q``, ``status``, ``slip``, ``penetration``, ``w`` (tributary length), ``gap``
 and the step's loads as field data ``stage``, ``P``, ``Q``, ``M``, ``theta`` (the exchange
-format of docs/external.md).
+format of docs/external.md), in double precision.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from .errors import InputError
 from .fields import von_mises
 
 
@@ -74,6 +78,16 @@ def bodies_mesh(history, step):
     )
 
 
+def single_precision(mesh):
+    """The mesh with float arrays as float32 and the connectivity as int32 (for viewing)."""
+    import meshio
+
+    data = {k: v.astype(np.float32) if v.dtype.kind == "f" else v
+            for k, v in mesh.point_data.items()}
+    cells = [(c.type, c.data.astype(np.int32)) for c in mesh.cells]
+    return meshio.Mesh(mesh.points.astype(np.float32), cells, point_data=data)
+
+
 def interface_mesh(step):
     """meshio.Mesh of the interface line at one step."""
     import meshio
@@ -122,14 +136,26 @@ def atomic_write_text(text: str, path: Path) -> None:
     os.replace(tmp, path)
 
 
-def write_vtk(history, directory) -> Path:
-    """Write bodies and interface .vtu files of every step and the .pvd time series."""
+#: Which steps :func:`write_vtk` writes: every step, or the last step of each stage.
+VTK_STEPS = ("all", "ends")
+
+
+def stage_ends(history) -> tuple:
+    """The last step of each stage that has steps."""
+    return tuple(history.stage(k)[-1] for k in (1, 2, 3) if history.stage(k))
+
+
+def write_vtk(history, directory, steps: str = "all") -> Path:
+    """Write bodies and interface .vtu files and the .pvd time series of every step
+    (``steps="all"``) or of the last step of each stage (``steps="ends"``)."""
+    if steps not in VTK_STEPS:
+        raise InputError(f"steps = {steps!r} is not allowed: need one of {', '.join(VTK_STEPS)}")
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     entries = []
-    for step in history.steps:
+    for step in history.steps if steps == "all" else stage_ends(history):
         names = (f"bodies_{step.index:04d}.vtu", f"interface_{step.index:04d}.vtu")
-        atomic_write_mesh(bodies_mesh(history, step), directory / names[0])
+        atomic_write_mesh(single_precision(bodies_mesh(history, step)), directory / names[0])
         atomic_write_mesh(interface_mesh(step), directory / names[1], step_loads(step))
         entries += [
             f'    <DataSet timestep="{step.t:.12g}" part="{k}" file={quoteattr(n)}/>'
