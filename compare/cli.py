@@ -225,11 +225,14 @@ def cmd_converge(args) -> int:
 def cmd_report(args) -> int:
     import time
 
-    from compare.report import DEFAULT_CONVERGENCE, DEFAULT_SUITE, write_report
+    from compare.cases import load_case
+    from compare.fileio import plan_output
+    from compare.report import DEFAULT_CONVERGENCE, DEFAULT_SUITE, REPORT_FILES, write_report
 
-    cases = args.cases or list(DEFAULT_SUITE)
+    cases = [load_case(c) for c in args.cases or DEFAULT_SUITE]  # bad input: before the banner
     conv = DEFAULT_CONVERGENCE if args.convergence is None else {
         n: tuple(args.levels) for n in args.convergence}
+    plan_output(args.out, "report", args.force, expected=REPORT_FILES)
     total = len(cases) + len(conv) + (0 if args.no_fig5 else 1)
     t0 = time.perf_counter()
     done = 0

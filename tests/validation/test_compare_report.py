@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from compare.errors import CaseError
 from compare.report import write_report
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -137,10 +138,19 @@ def test_failure_midway_leaves_no_partial_report(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_old_report_replaced_atomically(tmp_path):
+def test_foreign_files_refused_before_anything_is_computed(tmp_path, monkeypatch):
+    """A folder holding a file the report did not write is refused (CaseError) before any case
+    runs, and the file is kept (tests/validation/test_output_dirs.py: --force and the CLI)."""
+    import compare.report as rep
+
+    def never(*a, **k):
+        raise AssertionError("a case ran")
+
+    monkeypatch.setattr(rep, "run_case", never)
     out = tmp_path / "report"
     out.mkdir()
     (out / "stale.txt").write_text("old")
-    write_report(["hertz"], out, convergence_cases={}, fig5=False)
-    assert not (out / "stale.txt").exists() and (out / "index.html").is_file()
+    with pytest.raises(CaseError, match="did not write"):
+        write_report(["hertz"], out, convergence_cases={}, fig5=False)
+    assert [p.name for p in out.iterdir()] == ["stale.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]
