@@ -236,9 +236,10 @@ def cmd_report(args) -> int:
     total = len(cases) + len(conv) + (0 if args.no_fig5 else 1)
     t0 = time.perf_counter()
     done = 0
-    print(f"multicontact report: {len(cases)} cases, {len(conv)} convergence studies"
-          f"{'' if args.no_fig5 else ', the Fig. 5 study'} into {args.out} (each case takes "
-          "5-40 s; two run at a time)", file=sys.stderr, flush=True)
+    studies = f"{len(conv)} convergence stud{'y' if len(conv) == 1 else 'ies'}"
+    print(f"multicontact report: {len(cases)} cases, {studies}"
+          f"{'' if args.no_fig5 else ', the Fig. 5 study'} into {args.out} (a case takes 5-40 s; "
+          "two run at a time)", file=sys.stderr, flush=True)
 
     def step(msg: str) -> None:
         nonlocal done
@@ -281,7 +282,8 @@ def _force(sp: argparse.ArgumentParser) -> None:
 
 def _vtk_steps(sp: argparse.ArgumentParser) -> None:
     sp.add_argument("--vtk", choices=("ends", "all"), default="ends",
-                    help="VTK steps: the last of each stage (default) or all of them")
+                    help="VTK steps: 'ends' (default): the interface at the end of each stage "
+                         "and the bodies under the largest load; 'all': every step")
 
 
 def parser() -> argparse.ArgumentParser:

@@ -12,7 +12,8 @@ study page (``DIR/study_fig5.html``).  ``DIR`` is written through
 :func:`compare.fileio.owned_output`: a folder holding files multicontact did not write is refused
 (``force``: written beside them, they are kept), the report is made in a temporary folder next
 to ``DIR`` and swapped in at the end, so a failed or interrupted run leaves the previous report
-as it was.  The VTK series hold the last step of each stage (``vtk="all"``: every step).  The
+as it was.  The VTK series hold the interface at the last step of each stage and the bodies
+under the largest load, the pictured step (``vtk="all"``: every step; ``fem.write_vtk``).  The
 cases, the convergence studies and the Fig. 5 study run in REPORT_WORKERS forked processes, the
 pyvista pictures in one child process at the end.
 """
@@ -48,8 +49,9 @@ DEFAULT_SUITE = ("hertz", "cattaneo", "double_wedge_a", "two_cylinders_unequal",
 DEFAULT_CONVERGENCE = {"hertz": (-1, 0, 1)}
 
 Progress = Callable[[str], None]
-#: Which FE steps the report's VTK series hold: the last step of each stage (default: the steps
-#: a person opens; the six default cases' series take ~? MB) or every increment.
+#: Which FE steps the report's VTK series hold (``fem.write_vtk``): "ends", the interface at the
+#: end of each stage and the bodies under the largest load (default: what a person opens; the
+#: default suite's series take ~? MB; every step took 138 MB), or "all", every increment.
 VTK_STEPS = ("ends", "all")  # fem.vtk.VTK_STEPS
 #: Files every report writes (a foreign one of these names refuses ``force``).
 REPORT_FILES = ("index.html", "report.md", "summary.json")

@@ -120,9 +120,13 @@ def test_renders_in_headless_chromium(report, tmp_path):
 
 @pytest.mark.slow
 def test_default_suite_report(tmp_path):
+    """`make run`'s report: every case agrees, and it stays light (issue 26: at most 20 MB;
+    it was 143 MB with a VTK series of every sampled step)."""
     s = write_report(out_dir=tmp_path / "report")
     assert s["passed"] and s["fig5"]
     assert (tmp_path / "report" / "study_fig5.html").is_file()
+    size = sum(f.stat().st_size for f in (tmp_path / "report").rglob("*") if f.is_file())
+    assert size <= 20e6, f"report of {size / 1e6:.1f} MB"
 
 
 def test_failure_midway_leaves_no_partial_report(tmp_path, monkeypatch):
