@@ -108,10 +108,14 @@ def cmd_solve(args) -> int:
 def cmd_fem(args) -> int:
     import fem
     from compare.analytic_side import solve_normal_case
+    from compare.errors import CaseError
     from compare.fem_side import run_fem
     from compare.fileio import owned_output, plan_output
 
     case = _case(args, args.case)
+    if args.out and args.export and Path(args.out).resolve() == Path(args.export).resolve():
+        raise CaseError(f"-o {args.out} and --export {args.export}: give two folders (the VTK "
+                        "series and the exchange format are separate outputs)")
     plans = {what: plan_output(d, what, args.force)
              for what, d in (("fem", args.out), ("export", args.export)) if d}
     hist = run_fem(case, solve_normal_case(case))

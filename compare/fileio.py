@@ -62,12 +62,14 @@ def umask_mode(mode: int = 0o777) -> int:
 
 @dataclass(frozen=True)
 class OutputPlan:
-    """A checked output directory: its absolute path, the command writing it and the files of
-    the previous output there (relative paths; empty for a new or empty directory)."""
+    """A checked output directory: its absolute path, the command writing it, the files of
+    the previous output there (relative paths; empty for a new or empty directory) and whether
+    the user forced it."""
 
     out: Path
     command: str
     previous: tuple[str, ...]
+    force: bool = False
 
 
 def _never(out: Path) -> str:
@@ -140,7 +142,7 @@ def plan_output(out: str | Path, command: str, force: bool = False,
         raise CaseError(f"output folder {out}: is a file; give a folder (new or one that "
                         "multicontact wrote)")
     if not path.exists():
-        return OutputPlan(path, command, ())
+        return OutputPlan(path, command, (), force)
     owned = read_owned(path)
     foreign = _foreign(path, owned)
     clash = sorted(set(foreign) & set(expected))
@@ -160,7 +162,7 @@ def plan_output(out: str | Path, command: str, force: bool = False,
                 f"output folder {out}: holds the output of `multicontact {owned['command']}`; "
                 f"nothing was written. Choose another folder for `{command}`, or add --force "
                 "to replace it")
-    return OutputPlan(path, command, tuple(owned["files"]) if owned else ())
+    return OutputPlan(path, command, tuple(owned["files"]) if owned else (), force)
 
 
 def check_store(out: str | Path, marker: str, force: bool = False) -> Path:
@@ -208,6 +210,9 @@ def _commit(plan: OutputPlan, tmp: Path) -> None:
         os.replace(tmp, plan.out)
         return
     owned = read_owned(plan.out)
+    if owned and owned["command"] != plan.command and not plan.force:  # written meanwhile
+        raise CaseError(f"output folder {plan.out}: now holds the output of `multicontact "
+                        f"{owned['command']}`; nothing was replaced. Choose another folder")
     previous = sorted(set(owned["files"] if owned else ()) | set(plan.previous))
     clash = sorted(set(_foreign(plan.out, owned)) & set(files))
     if clash:

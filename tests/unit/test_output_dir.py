@@ -151,3 +151,12 @@ def test_store_folder_checked(tmp_path):
     check_store(out, "sweep.json", force=True)
     (out / "sweep.json").write_text("{}")
     check_store(out, "sweep.json")  # a sweep folder resumes
+
+
+def test_folder_taken_by_another_command_meanwhile_is_not_replaced(tmp_path):
+    out = tmp_path / "rep"
+    with pytest.raises(CaseError, match="now holds the output of `multicontact fem`"), \
+            owned_output(out, "report") as tmp:
+        (tmp / "index.html").write_text("report")
+        write(out, {"history.pvd": "fem"}, command="fem")  # another run, same folder
+    assert tree(out) == {"history.pvd": "fem"}
