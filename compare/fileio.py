@@ -152,10 +152,12 @@ def plan_output(out: str | Path, command: str, force: bool = False,
                         f"folder{_legacy_hint(owned, foreign)}")
     if not force:
         if foreign:
+            other = (f" beside the output of `multicontact {owned['command']}`"
+                     if owned and owned["command"] != command else "")
             raise CaseError(
                 f"output folder {out}: holds files multicontact did not write there "
-                f"({_named(foreign)}); nothing was written. Choose a new folder, or add --force "
-                "to write beside them (only multicontact's own files there are replaced)"
+                f"({_named(foreign)}){other}; nothing was written. Choose a new folder, or add "
+                "--force to write beside them (only multicontact's own files there are replaced)"
                 f"{_legacy_hint(owned, foreign)}")
         if owned and owned["command"] != command:
             raise CaseError(
