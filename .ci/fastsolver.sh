@@ -47,11 +47,16 @@ install() {
   if [ -f "$failed" ] && [ "$(cat "$failed")" = "$(signature)" ]; then
     return 0  # failed before with the same prerequisites; `check` points at the log
   fi
-  echo "multicontact: building the fast sparse solver $(requirement) (log: $log)"
+  echo "multicontact: set-up: building the fast sparse solver $(requirement) against" \
+    "SuiteSparse (CHOLMOD; compiles C, typically 0.5-2 min, once; log: $log)"
+  t0=$(date +%s)
   if "$py" -m pip install "$(requirement)" >"$log" 2>&1 && imports; then
     rm -f "$failed"
+    echo "multicontact: set-up: fast sparse solver built in $(( $(date +%s) - t0 )) s"
   else
     signature >"$failed"
+    echo "multicontact: set-up: the fast sparse solver did not build ($(( $(date +%s) - t0 )) s;" \
+      "see the notice at the end)"
   fi
 }
 

@@ -3,7 +3,8 @@
 Run: ``python benchmarks/audit.py --n 500 --seed 0 --jobs 1 --out audit-out``. Audits the cases
 of seeds ``seed .. seed + n - 1`` (see ``compare/audit/cases.py``) and writes ``audit.json`` and
 ``audit.md`` (cases, disagreements by class, solve-time median / p95 / max) to ``--out``.
-Exit status 1 when any case disagrees.
+Prints "i of N" per case; interrupted (Ctrl-C), it writes the table of the cases finished so
+far and exits with 130.  Exit status 1 when any case disagrees.
 """
 
 from __future__ import annotations
@@ -15,15 +16,24 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
+import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from compare.audit import checks, run  # noqa: E402
 
 
-def _progress(result: run.CaseResult) -> None:
-    verdict = ", ".join(result.classes) or "ok"
-    print(f"seed {result.seed}: {verdict} (solve {result.solve_cpu:.2f} s CPU)", file=sys.stderr,
-          flush=True)
+class Progress:
+    """Collects the results as they arrive and prints one line each: i of N, verdict, time."""
+
+    def __init__(self, total: int):
+        self.total, self.results, self.t0 = total, [], time.perf_counter()
+
+    def __call__(self, result: run.CaseResult) -> None:
+        self.results.append(result)
+        verdict = ", ".join(result.classes) or "ok"
+        print(f"[{len(self.results)} of {self.total}, {time.perf_counter() - self.t0:.0f} s] "
+              f"seed {result.seed}: {verdict} (solve {result.solve_cpu:.2f} s CPU)",
+              file=sys.stderr, flush=True)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -39,8 +49,20 @@ def main(argv: list[str] | None = None) -> int:
     if args.n < 1 or args.jobs < 1 or args.seed < 0:
         parser.error(f"need --n >= 1, --jobs >= 1, --seed >= 0 (got {args.n}, {args.jobs}, "
                      f"{args.seed})")
-    results = run.run_audit(list(range(args.seed, args.seed + args.n)), args.jobs, args.bem_n,
-                            report=_progress)
+    progress = Progress(args.n)
+    try:
+        run.run_audit(list(range(args.seed, args.seed + args.n)), args.jobs, args.bem_n,
+                      report=progress)
+    except KeyboardInterrupt:
+        results = progress.results
+        if not results:
+            print("interrupted before the first case finished: nothing written", file=sys.stderr)
+            return 130
+        run.write_table(results, args.out)
+        print(f"interrupted after {len(results)} of {args.n} cases: their table is written to "
+              f"{args.out / 'audit.json'} and {args.out / 'audit.md'}", file=sys.stderr)
+        return 130
+    results = progress.results
     head = run.write_table(results, args.out)
     print(run.markdown(results, head).split("\n## Cases")[0])
     print(f"written {args.out / 'audit.json'} and {args.out / 'audit.md'}")

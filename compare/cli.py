@@ -25,6 +25,32 @@ def _progress():
                     transient=True)
 
 
+#: Relative size below which a printed result is round-off: the symmetric Hertz case gives
+#: M = 3.7e-16 for P max|x| = 10.8 (3e-17 of it); the solver's residuals are ~1e-14 of their
+#: scale, so 1e-12 leaves a margin of 100 above round-off.
+ROUNDOFF = 1e-12
+
+
+def _resolved(value: float, scale: float, name: str) -> str:
+    """``value`` as a plain number, or 0 with its size when it is round-off of ``scale``."""
+    if abs(value) <= ROUNDOFF * abs(scale):
+        return f"0 (round-off: {abs(value):.1e} < {ROUNDOFF:.0e} {name})"
+    return f"{value:.6g}"
+
+
+def _zones(zones) -> str:
+    """Zones as [a, b] with plain numbers (None: full slip)."""
+    return ", ".join("full slip" if z is None else f"[{float(z[0]):.6g}, {float(z[1]):.6g}]"
+                     for z in zones) or "none"
+
+
+def _elapsed(t0: float) -> str:
+    import time
+
+    sec = time.perf_counter() - t0
+    return f"{sec:.0f} s" if sec < 120 else f"{sec / 60:.1f} min"
+
+
 def _print_json(data) -> None:
     from compare.report import clean_json
 
@@ -70,56 +96,72 @@ def cmd_solve(args) -> int:
     if args.json:
         _print_json(data)
         return EXIT_OK
-    print(f"{case.name}: P = {ns.P:g}, M = {ns.M:.6g}, theta = {ns.theta:.6g} ({ns.mode})")
+    arm = max(abs(x) for zone in ns.zones for x in zone)
+    print(f"{case.name}: P = {ns.P:g}, M = {_resolved(ns.M, ns.P * arm, 'P*max|x|')}, "
+          f"theta = {ns.theta:.6g} ({ns.mode})")
     for k, ((a, b), ld) in enumerate(zip(ns.zones, ns.zone_loads, strict=True)):
         print(f"  zone {k}: [{a:.8g}, {b:.8g}]  load {ld:.6g}  singular {ns.singular[k]}")
     for s in an.samples:
-        zs = ", ".join("full slip" if z is None else f"[{z[0]:.6g}, {z[1]:.6g}]"
-                       for z in s.stick_zones)
-        print(f"  stage {s.stage} Q = {s.Q:.6g}: stick {zs}")
+        print(f"  stage {s.stage} Q = {s.Q:.6g}: stick {_zones(s.stick_zones)}")
     return EXIT_OK
 
 
 def cmd_fem(args) -> int:
     import fem
     from compare.analytic_side import solve_normal_case
+    from compare.errors import CaseError
     from compare.fem_side import run_fem
+    from compare.fileio import owned_output, plan_output
 
     case = _case(args, args.case)
-    out = Path(args.out or f"{case.name}-vtk")
+    if args.out and args.export and Path(args.out).resolve() == Path(args.export).resolve():
+        raise CaseError(f"-o {args.out} and --export {args.export}: give two folders (the VTK "
+                        "series and the exchange format are separate outputs)")
+    plans = {what: plan_output(d, what, args.force)
+             for what, d in (("fem", args.out), ("export", args.export)) if d}
     hist = run_fem(case, solve_normal_case(case))
-    pvd = fem.write_vtk(hist, out)
+    pvd = None
+    if args.out:
+        with owned_output(args.out, "fem", args.force, plans["fem"]) as tmp:
+            fem.write_vtk(hist, tmp, steps=args.vtk)
+        pvd = plans["fem"].out / "history.pvd"
     if args.export:
         from compare.external import write_result
 
-        write_result(hist, args.export, case=case.name)
+        write_result(hist, args.export, case=case.name, force=args.force)
     ends = [hist.stage(k)[-1] for k in (1, 2, 3) if hist.stage(k)]
-    data = {"case": case.name, "vtk": str(pvd), "n_dofs": hist.n_dofs, "h_min": hist.h_min,
-            "timings": hist.timings,
+    data = {"case": case.name, "vtk": pvd and str(pvd), "n_dofs": hist.n_dofs,
+            "h_min": hist.h_min, "timings": hist.timings,
             "stage_ends": [{"stage": s.stage, "P": s.P, "Q": s.Q, "M": s.M,
                             "contact_zones": s.contact_zones, "stick_zones": s.stick_zones}
                            for s in ends]}
     if args.json:
         _print_json(data)
         return EXIT_OK
-    print(f"{case.name}: {hist.n_dofs} dofs, h = {hist.h_min:.3g}; VTK series {pvd}")
-    for s in data["stage_ends"]:
-        print(f"  end of stage {s['stage']} (P = {s['P']:g}, Q = {s['Q']:g}): contact "
-              f"{s['contact_zones']}, stick {s['stick_zones']}")
+    written = [f"VTK series {pvd}"] if pvd else []
+    written += [f"exchange format {Path(args.export).resolve()}"] if args.export else []
+    print(f"{case.name}: {hist.n_dofs} dofs, h = {hist.h_min:.3g}; "
+          + ("; ".join(written) or "no files written (-o DIR: VTK, --export DIR: CSV)"))
+    for s in ends:
+        print(f"  end of stage {s.stage} (P = {s.P:g}, Q = {s.Q:g}): contact "
+              f"{_zones(s.contact_zones)}; stick {_zones(s.stick_zones)}")
     return EXIT_OK
 
 
 def cmd_run(args) -> int:
+    from compare.fileio import owned_output, plan_output
     from compare.run import run_case
     from compare.testing import format_checks
 
     cases = [_case(args, n) for n in args.cases]
+    plan = plan_output(args.vtk, "run", args.force) if args.vtk else None
     results = []
-    with _progress() as prog:
+    with owned_output(args.vtk, "run", args.force, plan) if plan else _no_dir() as root, \
+            _progress() as prog:
         task = prog.add_task("running cases", total=len(cases))
         for case in cases:
             prog.update(task, description=f"running {case.name}")
-            results.append(run_case(case, vtk_dir=args.vtk and Path(args.vtk) / case.name))
+            results.append(run_case(case, vtk_dir=root and root / case.name))
             prog.advance(task)
     if args.json:
         _print_json([r.summary() for r in results])
@@ -128,6 +170,12 @@ def cmd_run(args) -> int:
             print(format_checks(r.checks, f"{r.case.name}: "
                                 f"{'agrees' if r.passed else 'FAILS'}"))
     return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
+
+
+def _no_dir():
+    from contextlib import nullcontext
+
+    return nullcontext(None)
 
 
 def _settings(items: Sequence[str] | None) -> dict:
@@ -143,13 +191,16 @@ def _settings(items: Sequence[str] | None) -> dict:
 
 
 def cmd_verify(args) -> int:
+    from compare.fileio import plan_output
     from compare.testing import format_checks
     from compare.verify import verify, write_verify_report
 
+    if args.out:  # refused before anything is computed
+        plan_output(args.out, "verify", args.force)
     if len(args.result) > 1:
         return _verify_sequence(args)
     res = verify(args.case, args.result[0], samples=args.samples, settings=_settings(args.set))
-    report = write_verify_report(res, args.out) if args.out else None
+    report = write_verify_report(res, args.out, force=args.force) if args.out else None
     if args.json:
         _print_json(res.summary() | ({"index": report["index"]} if report else {}))
         return EXIT_OK if res.passed else EXIT_FAIL
@@ -173,7 +224,7 @@ def _verify_sequence(args) -> int:
     report = None
     if args.out:
         ours = convergence(_case(args, args.case), levels=args.fem_levels)
-        report = write_sequence_report(seq, args.out, reference=ours)
+        report = write_sequence_report(seq, args.out, reference=ours, force=args.force)
     if args.json:
         _print_json(seq.summary() | ({"index": report["index"]} if report else {}))
     else:
@@ -200,35 +251,72 @@ def cmd_converge(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from compare.report import DEFAULT_CONVERGENCE, DEFAULT_SUITE, write_report
+    import time
 
-    cases = args.cases or list(DEFAULT_SUITE)
+    from compare.cases import load_case
+    from compare.fileio import plan_output
+    from compare.report import DEFAULT_CONVERGENCE, DEFAULT_SUITE, REPORT_FILES, write_report
+
+    cases = [load_case(c) for c in args.cases or DEFAULT_SUITE]  # bad input: before the banner
     conv = DEFAULT_CONVERGENCE if args.convergence is None else {
         n: tuple(args.levels) for n in args.convergence}
+    plan_output(args.out, "report", args.force, expected=REPORT_FILES)
     total = len(cases) + len(conv) + (0 if args.no_fig5 else 1)
-    with _progress() as prog:
-        task = prog.add_task("report", total=total)
+    t0 = time.perf_counter()
+    done = 0
+    studies = f"{len(conv)} convergence stud{'y' if len(conv) == 1 else 'ies'}"
+    print(f"multicontact report: {len(cases)} cases, {studies}"
+          f"{'' if args.no_fig5 else ', the Fig. 5 study'} into {args.out} (a case takes 5-40 s; "
+          "two run at a time)", file=sys.stderr, flush=True)
 
-        def step(msg: str) -> None:
-            prog.console.print(f"  {msg}")
-            prog.advance(task)
+    def step(msg: str) -> None:
+        nonlocal done
+        done += 1
+        print(f"  [{done} of {total}, {_elapsed(t0)}] {msg}", file=sys.stderr, flush=True)
 
-        summary = write_report(cases, args.out, convergence_cases=conv, fig5=not args.no_fig5,
-                               progress=step)
+    summary = write_report(cases, args.out, convergence_cases=conv, fig5=not args.no_fig5,
+                           progress=step, vtk=args.vtk, force=args.force)
     if args.json:
         _print_json(summary)
     else:
         print(f"report written: {summary['index']} "
               f"({'all cases agree' if summary['passed'] else 'some cases FAIL'}, "
-              f"{summary['elapsed_seconds']:.0f} s)")
+              f"{summary['elapsed_seconds']:.0f} s, {_size(Path(summary['index']).parent)})")
     return EXIT_OK if summary["passed"] else EXIT_FAIL
+
+
+def _size(root: Path) -> str:
+    total = sum(f.stat().st_size for f in root.rglob("*") if f.is_file())
+    return f"{total / 1e6:.1f} MB"
 
 
 # ---------------------------------------------------------------------------------------------
 # parser and entry point
 # ---------------------------------------------------------------------------------------------
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("multicontact")
+    except PackageNotFoundError:
+        return "(not installed)"
+
+
+def _force(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument("--force", action="store_true",
+                    help="write into a folder that holds other files (they are kept; only "
+                         "multicontact's own previous output there is replaced)")
+
+
+def _vtk_steps(sp: argparse.ArgumentParser) -> None:
+    sp.add_argument("--vtk", choices=("ends", "all"), default="ends",
+                    help="VTK steps: 'ends' (default): the interface at the end of each stage "
+                         "and the bodies under the largest load; 'all': every step")
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="multicontact", description=__doc__.split("\n\n")[0])
+    p.add_argument("--version", action="version", version=f"multicontact {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
 
     def add(name, func, help_):
@@ -240,16 +328,20 @@ def parser() -> argparse.ArgumentParser:
     add("list", cmd_list, "list the library cases")
     sp = add("solve", cmd_solve, "analytic solution of a case (zones, loads, stick zones)")
     sp.add_argument("case", help="library case name or .toml path")
-    sp = add("fem", cmd_fem, "FE solution of a case; writes the VTK series")
+    sp = add("fem", cmd_fem, "FE solution of a case; -o writes the VTK series, --export the "
+             "exchange format")
     sp.add_argument("case")
-    sp.add_argument("-o", "--out", help="VTK directory (default <case>-vtk)")
+    sp.add_argument("-o", "--out", metavar="DIR", help="write the VTK series (.pvd) into DIR")
     sp.add_argument("--level", type=int, help="override the FE mesh level")
     sp.add_argument("--export", metavar="DIR",
-                    help="also write the history in the exchange format (docs/external.md)")
+                    help="write the history in the exchange format (docs/external.md) into DIR")
+    _vtk_steps(sp)
+    _force(sp)
     sp = add("run", cmd_run, "analytic + FE + metrics; exit 1 if a tolerance fails")
     sp.add_argument("cases", nargs="+")
     sp.add_argument("--level", type=int, help="override the FE mesh level")
-    sp.add_argument("--vtk", help="also write VTK series into VTK/<case>/")
+    sp.add_argument("--vtk", metavar="DIR", help="also write every step's VTK into DIR/<case>/")
+    _force(sp)
     sp = add("verify", cmd_verify, "verify an external FE result (docs/external.md) against the "
              "analytic solution; exit 1 if a tolerance fails")
     sp.add_argument("case", help="library case name or .toml path")
@@ -257,7 +349,9 @@ def parser() -> argparse.ArgumentParser:
                     help="steps.csv manifest, folder of step files, or .pvd series; several: "
                          "results of one code at several resolutions, verified as a mesh "
                          "sequence (orders, stall, grid convergence index)")
-    sp.add_argument("-o", "--out", help="write the report pages into this folder")
+    sp.add_argument("-o", "--out", metavar="DIR",
+                    help="write the report pages into DIR (e.g. verify-report)")
+    _force(sp)
     sp.add_argument("--samples", choices=("steps", "case"), default="steps",
                     help="compare at every stage-2/3 step (default) or at the case's samples")
     sp.add_argument("--set", action="append", metavar="KEY=VALUE",
@@ -280,6 +374,8 @@ def parser() -> argparse.ArgumentParser:
     sp.add_argument("--levels", type=int, nargs="+", default=[-1, 0, 1],
                     help="levels of the convergence studies")
     sp.add_argument("--no-fig5", action="store_true", help="skip the paper Fig. 5 study page")
+    _vtk_steps(sp)
+    _force(sp)
     from compare.sweep.cli import add_sweep_parser  # `sweep` and `report --sweep DIR`
 
     add_sweep_parser(sub)

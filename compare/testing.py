@@ -28,12 +28,15 @@ class DisagreementError(AssertionError):
 
 
 def format_checks(checks, title: str = "") -> str:
-    """Aligned table: name, metric, value, tolerance, status."""
+    """Aligned table: name, metric, value, tolerance, status (columns as wide as their
+    longest entry)."""
+    head = ("check", "metric", "value", "tolerance", "status")
+    rows = [(c.name, c.metric, "n/a" if math.isnan(c.value) else f"{c.value:.4g}",
+             f"{c.tolerance:.4g}", c.status) for c in checks]
+    w = [max(len(r[k]) for r in [head, *rows]) for k in range(4)]
     lines = [title] if title else []
-    lines.append(f"  {'check':<18} {'metric':<24} {'value':>11} {'tolerance':>11}  status")
-    for c in checks:
-        val = "n/a" if math.isnan(c.value) else f"{c.value:.4g}"
-        lines.append(f"  {c.name:<18} {c.metric:<24} {val:>11} {c.tolerance:>11.4g}  {c.status}")
+    lines += [f"  {r[0]:<{w[0]}}  {r[1]:<{w[1]}}  {r[2]:>{w[2]}}  {r[3]:>{w[3]}}  {r[4]}"
+              for r in [head, *rows]]
     return "\n".join(lines)
 
 

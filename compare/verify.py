@@ -184,32 +184,26 @@ def report_note(res: CaseResult) -> str:
     return f"Verified result: {res.source}." + (f" Not available: {na}." if na else "")
 
 
-def write_verify_report(res: CaseResult, out_dir: str | Path) -> dict:
+def write_verify_report(res: CaseResult, out_dir: str | Path, force: bool = False) -> dict:
     """Report pages of a verified external result (index.html, report.md, summary.json).
 
-    The same pages as ``compare.report.write_report`` for one case, written atomically; the
-    page names the external code and lists the metrics that are not available.
+    The same pages as ``compare.report.write_report`` for one case, written through
+    :func:`compare.fileio.owned_output` (``force``: see there); the page names the external code
+    and lists the metrics that are not available.
     """
-    import shutil
-    import tempfile
-
     from compare import report as rp
+    from compare.fileio import owned_output, plan_output
 
     t0 = time.perf_counter()
     shown = replace(res, case=replace(res.case, description=report_note(res)))
-    out = Path(out_dir).resolve()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    try:
+    plan = plan_output(out_dir, "verify", force, expected=rp.REPORT_FILES)
+    with owned_output(out_dir, "verify", force, plan) as tmp:
         (tmp / "figures").mkdir()
         sec = rp.CaseSection(shown, vtk_note=f"interface data only: {res.source}",
                              render_note="an external result has no body fields to render")
         rp._write_figs(sec, tmp)
         summary = rp._summary([sec], [], [], time.perf_counter() - t0)
         rp._write_documents(tmp, [sec], [], {}, False, summary)
-        rp._atomic_dir(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    out = plan.out
     summary["index"] = str(out / "index.html")
     return summary

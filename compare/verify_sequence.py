@@ -31,9 +31,6 @@ from __future__ import annotations
 import html
 import json
 import math
-import os
-import shutil
-import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -46,6 +43,7 @@ from compare.cases import Case, load_case
 from compare.convergence import EXPECTED_ORDERS, TRACKED, ConvergenceStudy, assemble, paired_edges
 from compare.errors import CaseError
 from compare.external import ExternalResult, read_result
+from compare.fileio import owned_output, plan_output
 from compare.run import CaseResult
 from compare.verify import verify
 
@@ -353,17 +351,21 @@ def _html(seq: SequenceVerification, reference: ConvergenceStudy | None) -> str:
     return page(f"{seq.case_name}: mesh sequence", body, links=False)
 
 
+#: The files a sequence report writes (a foreign file of these names is never overwritten).
+SEQUENCE_FILES = ("index.html", "report.md", "summary.json")
+
+
 def write_sequence_report(seq: SequenceVerification, out_dir: str | Path,
-                          reference: ConvergenceStudy | None = None) -> dict:
+                          reference: ConvergenceStudy | None = None,
+                          force: bool = False) -> dict:
     """index.html, report.md, summary.json and figures/convergence.png of a sequence (with
-    ``reference``, our own FE's study, on the same axes), written into a temporary folder that
-    replaces ``out_dir`` at the end.  Returns the summary with its 'index'."""
+    ``reference``, our own FE's study, on the same axes), written through
+    :func:`compare.fileio.owned_output` (``force``: see there).  Returns the summary with its
+    'index'."""
     t0 = time.perf_counter()
-    out = Path(out_dir).resolve()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    plan = plan_output(out_dir, "verify", force, expected=SEQUENCE_FILES)
     summary = seq.summary() | {"reference": reference.summary() if reference else None}
-    try:
+    with owned_output(out_dir, "verify", force, plan) as tmp:
         (tmp / "figures").mkdir()
         (tmp / "figures" / "convergence.png").write_bytes(sequence_figure(seq, reference))
         (tmp / "index.html").write_text(_html(seq, reference), encoding="utf-8")
@@ -374,17 +376,7 @@ def write_sequence_report(seq: SequenceVerification, out_dir: str | Path,
         summary["elapsed_seconds"] = time.perf_counter() - t0
         (tmp / "summary.json").write_text(json.dumps(_clean(summary), indent=1),
                                           encoding="utf-8")
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-            os.replace(out, old / out.name)
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return summary | {"index": str(out / "index.html")}
+    return summary | {"index": str(plan.out / "index.html")}
 
 
 def _clean(obj):

@@ -28,7 +28,8 @@ solve_history(h0, P0, Q0, mu, E, nu, *, M=None, mesh=None, contact=None,
           ((xmin, xmax), ...): each is refined relative to its own width, graded across
           the gaps (required for MeshSpec).
     vtk_dir: if given, write_vtk(history, vtk_dir).
-write_vtk(history, directory) -> Path of the .pvd time series.
+write_vtk(history, directory, steps="all") -> Path of the .pvd time series (steps="ends": the
+    last step of each stage).
     backend: sparse solver ("auto" = cholmod > pypardiso > scipy-splu; the one that
           ran is FemHistory.backend).
 FemHistory: steps, n_dofs, order, backend, timings (seconds: assembly,

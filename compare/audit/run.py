@@ -190,14 +190,22 @@ def _limit_memory() -> None:
 def run_audit(seeds: list[int], jobs: int = 1, n_bem: int = checks.BEM_N,
               report: Callable[[CaseResult], None] | None = None) -> list[CaseResult]:
     """Audit every seed in ``jobs`` worker processes; results in seed order, each passed to
-    ``report`` as it arrives."""
+    ``report`` as it arrives.  On KeyboardInterrupt the cases not started are cancelled and
+    the pool is shut down (its workers and semaphores released) before the interrupt goes on:
+    the caller keeps what ``report`` received."""
     out = []
     ctx = multiprocessing.get_context(WORKER_START)
     with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_limit_memory) as pool:
-        for result in pool.map(audit_seed, seeds, [n_bem] * len(seeds)):
-            if report is not None:
-                report(result)
-            out.append(result)
+        futures = [pool.submit(audit_seed, seed, n_bem) for seed in seeds]
+        try:
+            for future in futures:
+                result = future.result()
+                if report is not None:
+                    report(result)
+                out.append(result)
+        except KeyboardInterrupt:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
     return out
 
 

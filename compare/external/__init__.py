@@ -5,7 +5,8 @@ read_result(path, settings=None) -> ExternalResult
     file, or a ``.pvd`` VTK series; settings: ``key -> text`` overriding the files' header items
     (conventions such as ``pressure_sign``, meta data such as ``code``).
 ExternalResult.history(mu, E, nu) -> fem.FemHistory (FE-like, our convention)
-write_result(hist, directory, code=..., case=...) -> path of the manifest (our own history exported)
+write_result(hist, directory, code=..., case=..., force=False) -> path of the manifest (our own
+    history exported; see compare.fileio.owned_output)
 Conventions, Meta: the header items.  Errors: compare.errors.CaseError.
 """
 
@@ -33,13 +34,15 @@ def read_result(path: str | Path, settings: dict | None = None) -> ExternalResul
     return read_csv_result(p, settings)
 
 
-def write_result(hist, directory: str | Path, code: str = "multicontact fem", case: str = ""
-                 ) -> Path:
-    """Export a ``fem.FemHistory`` in the exchange format (manifest + one CSV per step)."""
+def write_result(hist, directory: str | Path, code: str = "multicontact fem", case: str = "",
+                 force: bool = False) -> Path:
+    """Export a ``fem.FemHistory`` in the exchange format (manifest + one CSV per step); a
+    folder holding files multicontact did not write is refused unless ``force``
+    (:func:`compare.fileio.owned_output`)."""
     seconds = hist.timings.get("assembly", 0.0) + hist.timings.get("history", 0.0)
     meta = Meta(code=code, case=case, dofs=int(hist.n_dofs), order=int(hist.order),
                 seconds=float(seconds))
-    return write_csv_result(hist, directory, meta)
+    return write_csv_result(hist, directory, meta, force)
 
 
 __all__ = ["Conventions", "ExternalResult", "Meta", "read_result", "write_result"]

@@ -10,9 +10,6 @@ from __future__ import annotations
 
 import csv
 import math
-import os
-import shutil
-import tempfile
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -29,6 +26,7 @@ from compare.external.exchange import (
     parse_header,
     status_codes,
 )
+from compare.fileio import owned_output, plan_output
 
 MANIFEST = "steps.csv"
 LOAD_KEYS = ("stage", "P", "Q", "M", "theta")
@@ -222,26 +220,19 @@ def step_name(index: int) -> str:
     return f"step_{index:04d}.csv"
 
 
-def write_csv_result(hist, directory: str | Path, meta: Meta) -> Path:
+def write_csv_result(hist, directory: str | Path, meta: Meta, force: bool = False) -> Path:
     """Write ``hist`` (fem.FemHistory) as manifest + step files into ``directory``.
 
-    Files go to a temporary folder next to ``directory``, which replaces it at the end.
+    Written through :func:`compare.fileio.owned_output` (a folder holding files multicontact
+    did not write is refused unless ``force``; the previous export is replaced atomically).
     Returns the manifest path.
     """
-    out = Path(directory).resolve()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    try:
+    plan = plan_output(directory, "export", force, expected=(MANIFEST,))
+    with owned_output(directory, "export", force, plan) as tmp:
         for s in hist.steps:
             (tmp / step_name(s.index)).write_text(step_text(s), encoding="utf-8")
         (tmp / MANIFEST).write_text(manifest_text(hist, meta), encoding="utf-8")
-        if out.exists():
-            shutil.rmtree(out)
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return out / MANIFEST
+    return plan.out / MANIFEST
 
 
 __all__ = ["MANIFEST", "REQUIRED_COLUMNS", "read_csv_result", "write_csv_result"]

@@ -42,6 +42,7 @@ from compare.errors import CaseError
 from compare.external import write_result
 from compare.external.csvio import MANIFEST, step_name
 from compare.fem_side import kinks, mesh, run_fem, window
+from compare.fileio import owned_output, plan_output
 
 #: Kratos' AUGMENTED_NORMAL_CONTACT_PRESSURE is negative in compression (sum p w = -P).
 KRATOS_PRESSURE_SIGN = -1
@@ -256,36 +257,40 @@ def _measure(mp, g: Geometry, top_nodes, slave_nodes) -> dict:
             "q": np.where(active, q, 0.0), "status": status}
 
 
-def run(case: Case | str, out: str | Path, level: int = 0) -> Path:
+def run(case: Case | str, out: str | Path, level: int = 0, force: bool = False) -> Path:
     """Run ``case`` in Kratos and write the exchange format into ``out``; returns the manifest.
 
     Vertical indentation only (the driver locks the rotation).  ``level``: mesh level of our
     own FE mesh that Kratos uses.  Kratos' working files go to ``out/kratos``, our own FE
     history on the same mesh (which gives Kratos its top displacements) to
-    ``out/multicontact_fem`` in the exchange format, for a side-by-side verification.
+    ``out/multicontact_fem`` in the exchange format, for a side-by-side verification.  ``out``
+    is written through :func:`compare.fileio.owned_output` (a folder holding other files is
+    refused unless ``force``, which keeps them; the previous run's files are replaced).
     """
     case = load_case(case)
     if case.M is not None:
         raise CaseError(f"case '{case.name}': the Kratos driver runs vertical indentation only "
                         "(M = None)")
+    plan = plan_output(out, "kratos", force)
     t0 = time.perf_counter()
     g = geometry(case, level)
     hist, path = targets(case, level)
     t_fe = time.perf_counter() - t0
-    out = Path(out).resolve()
-    write_result(hist, out / "multicontact_fem", case=case.name)
-    work = out / "kratos"
-    work.mkdir(parents=True, exist_ok=True)
-    (work / f"{case.name}.mdpa").write_text(mdpa_text(g))
-    (work / f"{case.name}_materials.json").write_text(json.dumps(materials(case)))
-    cwd = os.getcwd()
-    try:
-        rows, seconds, n_dofs = _run_kratos(work, case.name, g, path)
-    finally:
-        os.chdir(cwd)
-    x = g.xy[g.slave, 0]
-    note = f"top displacements of multicontact fem ({hist.n_dofs} dofs, {t_fe:.1f} s)"
-    return write_steps(out, case.name, x, rows, n_dofs, seconds, note)
+    with owned_output(out, "kratos", force, plan) as tmp:
+        write_result(hist, tmp / "multicontact_fem", case=case.name)
+        work = tmp / "kratos"
+        work.mkdir()
+        (work / f"{case.name}.mdpa").write_text(mdpa_text(g))
+        (work / f"{case.name}_materials.json").write_text(json.dumps(materials(case)))
+        cwd = os.getcwd()
+        try:
+            rows, seconds, n_dofs = _run_kratos(work, case.name, g, path)
+        finally:
+            os.chdir(cwd)
+        x = g.xy[g.slave, 0]
+        note = f"top displacements of multicontact fem ({hist.n_dofs} dofs, {t_fe:.1f} s)"
+        write_steps(tmp, case.name, x, rows, n_dofs, seconds, note)
+    return plan.out / MANIFEST
 
 
 def _run_kratos(work: Path, name: str, g: Geometry, path) -> tuple[list, float, int]:
@@ -332,11 +337,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("case")
     ap.add_argument("out")
     ap.add_argument("--level", type=int, default=0)
+    ap.add_argument("--force", action="store_true",
+                    help="write into a folder that holds other files (they are kept)")
     args = ap.parse_args(argv)
     if not available():
         print("Kratos is not installed: pip install -e .[kratos]", file=sys.stderr)
         return 2
-    manifest = run(args.case, args.out, args.level)
+    try:
+        manifest = run(args.case, args.out, args.level, args.force)
+    except CaseError as exc:
+        print(f"python -m compare.external.kratos: error: {exc}", file=sys.stderr)
+        return 2
     results = [verify(args.case, m) for m in (manifest, manifest.parent / "multicontact_fem")]
     for res in results:
         print(format_checks(res.checks, f"{res.case.name}: {res.source}, {res.fem.n_dofs} dofs, "

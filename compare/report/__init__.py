@@ -8,8 +8,12 @@ over the cycle, sigma_xx around the contact with the interface status), a small 
 off-screen picture of the whole deformed bodies coloured by von Mises stress, and links to the
 VTK series (``DIR/vtk/<case>/history.pvd``).  A case run without CHOLMOD is announced at the
 top.  Optional convergence studies (log-log plots with observed orders) and the paper's Fig. 5
-study page (``DIR/study_fig5.html``).  Everything is written into a temporary directory next
-to ``DIR`` and renamed into place at the end, so a failed run leaves no partial report.  The
+study page (``DIR/study_fig5.html``).  ``DIR`` is written through
+:func:`compare.fileio.owned_output`: a folder holding files multicontact did not write is refused
+(``force``: written beside them, they are kept), the report is made in a temporary folder next
+to ``DIR`` and swapped in at the end, so a failed or interrupted run leaves the previous report
+as it was.  The VTK series hold the interface at the last step of each stage and the bodies
+under the largest load, the pictured step (``vtk="all"``: every step; ``fem.write_vtk``).  The
 cases, the convergence studies and the Fig. 5 study run in REPORT_WORKERS forked processes, the
 pyvista pictures in one child process at the end.
 """
@@ -19,9 +23,6 @@ from __future__ import annotations
 import json
 import math
 import multiprocessing as mp
-import os
-import shutil
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -30,6 +31,8 @@ from pathlib import Path
 
 from compare.cases import Case, case_from_dict, load_case
 from compare.convergence import ConvergenceStudy, convergence
+from compare.errors import CaseError
+from compare.fileio import owned_output, plan_output
 from compare.report import figures, region, zones
 from compare.report.fig5 import fig5_rows
 from compare.report.html import case_html, case_md, page, study_html, verdict_text
@@ -46,6 +49,13 @@ DEFAULT_SUITE = ("hertz", "cattaneo", "double_wedge_a", "two_cylinders_unequal",
 DEFAULT_CONVERGENCE = {"hertz": (-1, 0, 1)}
 
 Progress = Callable[[str], None]
+#: Which FE steps the report's VTK series hold (``fem.write_vtk``): "ends", the interface at the
+#: end of each stage and the bodies under the largest load (default: what a person opens; 9.3 MB
+#: of the default suite's 14.3 MB report, where bodies and interface at every stage end and
+#: sampled Q in double precision took 138 MB of 143), or "all", every step.
+VTK_STEPS = ("ends", "all")  # fem.vtk.VTK_STEPS
+#: Files every report writes (a foreign one of these names refuses ``force``).
+REPORT_FILES = ("index.html", "report.md", "summary.json")
 
 
 @dataclass
@@ -76,15 +86,7 @@ def _write_figs(sec: CaseSection, root: Path) -> None:
         (fig_dir / f"{res.case.name}_{i}.png").write_bytes(data)
 
 
-def report_steps(res: CaseResult) -> tuple:
-    """FE steps of the report's VTK series: the end of every stage and the sampled Q values
-    (writing every increment costs ~0.5 s each; ``fem.write_vtk`` on the full history does)."""
-    keep = {s.index for k in (1, 2, 3) for s in res.fem.stage(k)[-1:]}
-    keep |= {res.fem.at(st.stage, Q=st.Q).index for st in res.analytic.samples}
-    return tuple(s for s in res.fem.steps if s.index in keep)
-
-
-def _write_vtk(sec: CaseSection, root: Path) -> tuple | None:
+def _write_vtk(sec: CaseSection, root: Path, vtk: str = "ends") -> tuple | None:
     """The case's VTK series; returns the render job (vtu, png, region) of its pyvista
     picture, or None with the reason noted."""
     import fem
@@ -92,7 +94,7 @@ def _write_vtk(sec: CaseSection, root: Path) -> tuple | None:
     res = sec.result
     out = root / "vtk" / res.case.name
     try:
-        pvd = fem.write_vtk(replace(res.fem, steps=report_steps(res)), out)
+        pvd = fem.write_vtk(res.fem, out, steps=vtk)
     except Exception as exc:  # noqa: BLE001 - any writer failure is reported, not fatal
         sec.vtk_note = f"VTK series not written: {type(exc).__name__}: {exc}"
         sec.render_note = "no pyvista picture: the VTK series is missing"
@@ -117,17 +119,6 @@ def _render(sections: list[CaseSection], jobs: list, root: Path) -> None:
         sec.seconds += share
 
 
-def _atomic_dir(tmp: Path, out: Path) -> None:
-    """Move the finished ``tmp`` to ``out`` (replacing an old report)."""
-    old = None
-    if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-        os.replace(out, old / out.name)
-    os.replace(tmp, out)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
-
-
 def _summary(sections: list[CaseSection], studies: list[ConvergenceStudy], fig5: list[dict],
              elapsed: float) -> dict:
     cases = []
@@ -143,28 +134,28 @@ def _summary(sections: list[CaseSection], studies: list[ConvergenceStudy], fig5:
 
 def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: str | Path = "report",
                  convergence_cases: dict | None = None, fig5: bool = True,
-                 progress: Progress | None = None) -> dict:
+                 progress: Progress | None = None, vtk: str = "ends", force: bool = False
+                 ) -> dict:
     """Run ``cases`` and write the report into ``out_dir``; returns the summary dict.
 
-    All cases are loaded (and validated) before anything is computed: bad input raises
+    All cases are loaded (and validated) and ``out_dir`` is checked
+    (:func:`compare.fileio.plan_output`) before anything is computed: bad input raises
     :class:`compare.errors.CaseError` and nothing is written.  ``convergence_cases`` maps case
     names to level tuples (default :data:`DEFAULT_CONVERGENCE`; ``{}`` for none).  ``progress``
-    receives a short message after each unit of work.
+    receives a short message after each unit of work.  ``vtk``: one of :data:`VTK_STEPS`;
+    ``force``: write beside files multicontact did not write in ``out_dir`` (they are kept).
     """
     t0 = time.perf_counter()
+    if vtk not in VTK_STEPS:
+        raise CaseError(f"vtk = {vtk!r}: allowed {', '.join(VTK_STEPS)}")
     loaded = [load_case(c) for c in cases]
     conv = DEFAULT_CONVERGENCE if convergence_cases is None else convergence_cases
     conv_cases = {name: (load_case(name), levels) for name, levels in conv.items()}
-    out = Path(out_dir).resolve()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    try:
-        summary = _build(loaded, conv_cases, fig5, tmp, progress or (lambda msg: None), t0)
-        _atomic_dir(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    summary["index"] = str(out / "index.html")
+    plan = plan_output(out_dir, "report", force, expected=REPORT_FILES)
+    with owned_output(out_dir, "report", force, plan) as tmp:
+        summary = _build(loaded, conv_cases, fig5, tmp, progress or (lambda msg: None), t0,
+                         vtk=vtk)
+    summary["index"] = str(plan.out / "index.html")
     return summary
 
 
@@ -173,14 +164,14 @@ def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: st
 REPORT_WORKERS = 2
 
 
-def _case_unit(case: Case, root: Path) -> tuple[CaseSection, tuple | None]:
+def _case_unit(case: Case, root: Path, vtk: str = "ends") -> tuple[CaseSection, tuple | None]:
     """One case: run, figures, VTK series; the section without what cannot cross a process
     boundary (the case and the analytic solution hold profile closures, the FE fields a sparse
     factor): the caller puts the case back; figures and VTK files are already made."""
     sec = CaseSection(run_case(case))
     t_case = time.perf_counter()
     _write_figs(sec, root)
-    job = _write_vtk(sec, root)
+    job = _write_vtk(sec, root, vtk)
     sec.seconds = time.perf_counter() - t_case
     res = sec.result
     sec.result = replace(res, case=None, analytic=None, fem=replace(res.fem, fields=None))
@@ -203,9 +194,9 @@ def _fig5_unit(root: Path) -> tuple[list, bytes]:
     return rows, fig5_png
 
 
-def _case_doc_unit(doc: dict, root: Path) -> tuple[CaseSection, tuple | None]:
+def _case_doc_unit(doc: dict, root: Path, vtk: str = "ends") -> tuple[CaseSection, tuple | None]:
     """:func:`_case_unit` in a worker process: the case arrives as its case-file table."""
-    return _case_unit(case_from_dict(doc, name=doc["name"]), root)
+    return _case_unit(case_from_dict(doc, name=doc["name"]), root, vtk)
 
 
 def _convergence_doc_unit(doc: dict, levels: tuple, root: Path):
@@ -237,7 +228,7 @@ def _run_units(units: list[tuple], workers: int):
 
 
 def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, progress: Progress,
-           t0: float, workers: int = REPORT_WORKERS) -> dict:
+           t0: float, workers: int = REPORT_WORKERS, vtk: str = "ends") -> dict:
     (root / "figures").mkdir()
     conv = list(conv_cases.values())
     docs = portable(cases + [c for c, _ in conv]) if workers > 1 else None
@@ -245,7 +236,7 @@ def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, pro
     if docs is None:
         workers, docs, run_one, run_conv = 1, cases + [c for c, _ in conv], _case_unit, \
             _convergence_unit
-    units = [(run_one, d, root) for d in docs[:len(cases)]]
+    units = [(run_one, d, root, vtk) for d in docs[:len(cases)]]
     units += [(run_conv, d, levels, root) for d, (_, levels) in zip(docs[len(cases):], conv,
                                                                      strict=True)]
     units += [(_fig5_unit, root)] if want_fig5 else []

@@ -14,10 +14,11 @@ import signal
 import sys
 from pathlib import Path
 
-from compare.errors import SweepError
+from compare.errors import CaseError, SweepError
+from compare.fileio import check_store
 from compare.sweep.runner import SweepOutcome, pending_cases, run_sweep
 from compare.sweep.spec import Sweep, list_studies, load_sweep
-from compare.sweep.store import RESULTS_FILE, read_records
+from compare.sweep.store import MANIFEST_FILE, RESULTS_FILE, read_records
 
 #: Exit codes of ``multicontact sweep``.
 EXIT_OK, EXIT_FAILED_CASES, EXIT_BAD_INPUT = 0, 1, 2
@@ -45,6 +46,8 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--dry-run", action="store_true", help="list the cases to run and stop")
     p.add_argument("--json", action="store_true", help="print the outcome as JSON")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--force", action="store_true",
+                   help="run into a folder that holds other files (they are kept)")
     p.set_defaults(func=cmd_sweep, handler=cmd_sweep)
     report = subparsers.choices.get("report")
     if report is not None:
@@ -70,8 +73,8 @@ def cmd_sweep_report(args) -> int:
     from compare.sweep.report import write_sweep_report
 
     try:
-        out = write_sweep_report(args.sweep)
-    except SweepError as exc:
+        out = write_sweep_report(args.sweep, force=getattr(args, "force", False))
+    except (SweepError, CaseError) as exc:
         print(f"multicontact report: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     print(f"sweep report: {out / 'index.html'} and {out / 'report.md'}")
@@ -95,12 +98,13 @@ def cmd_sweep(args) -> int:
     interrupted)."""
     try:
         sweep = load_sweep(args.study)
+        check_store(args.output, MANIFEST_FILE, args.force)
         if args.dry_run:
             return _dry_run(sweep, args)
         res = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
                         parts=args.part, retry_failed=args.retry_failed,
                         progress=not args.no_progress and not args.json)
-    except SweepError as exc:
+    except (SweepError, CaseError) as exc:
         print(f"multicontact sweep: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     _print_outcome(res, args.json)
@@ -134,6 +138,8 @@ def main(argv: list[str] | None = None) -> int:
     add_sweep_parser(sub)
     rep = sub.add_parser("report", help="report of a sweep directory")
     rep.add_argument("--sweep", metavar="DIR", required=True)
+    rep.add_argument("--force", action="store_true",
+                     help="write DIR/report beside files multicontact did not write there")
     rep.set_defaults(func=cmd_sweep_report)
     args = parser.parse_args(argv)
     return args.func(args)

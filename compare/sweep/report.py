@@ -21,9 +21,6 @@ import io
 import itertools
 import json
 import math
-import os
-import shutil
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from compare.errors import SweepError
+from compare.fileio import owned_output, plan_output
 from compare.sweep.store import read_manifest, read_records
 from compare.sweep.tasks import ANALYTIC_TASKS, DEFAULT_METRICS
 
@@ -380,36 +378,26 @@ def html_page(man: dict, rows: list[dict], figs: list[Figure], summ: dict) -> st
     return "\n".join(out)
 
 
-def _swap_in(tmp: Path, out: Path) -> None:
-    """Replace ``out`` by the finished directory ``tmp`` (old report removed afterwards)."""
-    old = None
-    if out.exists():
-        old = out.with_name(f".{out.name}.old.{os.getpid()}")
-        os.replace(out, old)
-    os.replace(tmp, out)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+def write_sweep_report(directory: str | Path, out: str | Path | None = None,
+                       force: bool = False) -> Path:
+    """Write the report of a sweep directory (default into ``DIR/report``); return its path.
 
-
-def write_sweep_report(directory: str | Path, out: str | Path | None = None) -> Path:
-    """Write the report of a sweep directory (default into ``DIR/report``); return its path."""
+    Written through :func:`compare.fileio.owned_output`: a folder holding files multicontact
+    did not write is refused (CaseError) unless ``force``; the previous report is replaced
+    atomically.
+    """
     directory = Path(directory)
     man, rows = sweep_rows(directory)
+    out = Path(out) if out else directory / "report"
+    plan = plan_output(out, "sweep report", force, expected=("index.html", "report.md"))
     figs = figures(man, rows)
     summ = summary(man, rows)
-    out = Path(out) if out else directory / "report"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    tmp.chmod(0o755)
-    try:
+    with owned_output(out, "sweep report", force, plan) as tmp:
         (tmp / "figures").mkdir()
         for f in figs:
             (tmp / "figures" / f"{f.stem}.png").write_bytes(f.png)
         (tmp / "report.md").write_text(markdown(man, rows, figs, summ), encoding="utf-8")
         (tmp / "index.html").write_text(html_page(man, rows, figs, summ), encoding="utf-8")
         (tmp / "summary.json").write_text(json.dumps(summ, indent=1), encoding="utf-8")
-        _swap_in(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    out = plan.out
     return out

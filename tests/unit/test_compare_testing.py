@@ -42,3 +42,23 @@ def test_zone_count_mismatch_fails():
 def test_unknown_keyword():
     with pytest.raises(TypeError, match="edge_tol"):
         assert_agrees(fake(), edge_tol=0.1)
+
+
+def test_check_table_columns_align_on_long_names():
+    """Every column starts (text) or ends (numbers) at one offset, also past a long name."""
+    from compare.run import Check
+    from compare.testing import format_checks
+
+    checks = [Check("surface_peak_location", "surface_peak_location_error", 0.0107, 0.1),
+              Check("edge", "edge_error_max", 3.6e-4, 0.005),
+              Check("rotation", "rotation_error", float("nan"), 0.03)]
+    lines = format_checks(checks, "title").splitlines()[1:]
+    rows = [("metric", "value", "tolerance", "status")] + [
+        (c.metric, "n/a" if c.status == "n/a" else f"{c.value:.4g}", f"{c.tolerance:.4g}",
+         c.status) for c in checks]
+    assert len({ln.index(r[0]) for ln, r in zip(lines, rows, strict=True)}) == 1
+    assert len({ln.rindex(r[3]) for ln, r in zip(lines, rows, strict=True)}) == 1
+    for k in (1, 2):  # numbers right-aligned: they end where their header ends
+        ends = {ln.index(r[k], ln.index(r[0]) + len(r[0])) + len(r[k])
+                for ln, r in zip(lines, rows, strict=True)}
+        assert len(ends) == 1, "\n".join(lines)

@@ -72,3 +72,13 @@ def test_fem_writes_vtk(tmp_path, capsys):
     assert main(["fem", "hertz", "-o", str(out), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert (out / "history.pvd").is_file() and d["stage_ends"][0]["stage"] == 1
+
+
+def test_plain_numbers_round_off_and_version(capsys):
+    """`solve` prints round-off as 0 with its scale and no numpy reprs; --version works."""
+    assert main(["solve", "hertz"]) == 0
+    out = capsys.readouterr().out
+    assert "M = 0 (round-off: " in out and "np." not in out
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.startswith("multicontact ")

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from compare.errors import CaseError
 from compare.report import write_report
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -119,9 +120,13 @@ def test_renders_in_headless_chromium(report, tmp_path):
 
 @pytest.mark.slow
 def test_default_suite_report(tmp_path):
+    """`make run`'s report: every case agrees, and it stays light (issue 26: at most 20 MB;
+    it was 143 MB with a VTK series of every sampled step)."""
     s = write_report(out_dir=tmp_path / "report")
     assert s["passed"] and s["fig5"]
     assert (tmp_path / "report" / "study_fig5.html").is_file()
+    size = sum(f.stat().st_size for f in (tmp_path / "report").rglob("*") if f.is_file())
+    assert size <= 20e6, f"report of {size / 1e6:.1f} MB"
 
 
 def test_failure_midway_leaves_no_partial_report(tmp_path, monkeypatch):
@@ -137,10 +142,19 @@ def test_failure_midway_leaves_no_partial_report(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_old_report_replaced_atomically(tmp_path):
+def test_foreign_files_refused_before_anything_is_computed(tmp_path, monkeypatch):
+    """A folder holding a file the report did not write is refused (CaseError) before any case
+    runs, and the file is kept (tests/validation/test_output_dirs.py: --force and the CLI)."""
+    import compare.report as rep
+
+    def never(*a, **k):
+        raise AssertionError("a case ran")
+
+    monkeypatch.setattr(rep, "run_case", never)
     out = tmp_path / "report"
     out.mkdir()
     (out / "stale.txt").write_text("old")
-    write_report(["hertz"], out, convergence_cases={}, fig5=False)
-    assert not (out / "stale.txt").exists() and (out / "index.html").is_file()
+    with pytest.raises(CaseError, match="did not write"):
+        write_report(["hertz"], out, convergence_cases={}, fig5=False)
+    assert [p.name for p in out.iterdir()] == ["stale.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]

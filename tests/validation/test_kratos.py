@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from compare.errors import CaseError
 from compare.external import kratos
 from compare.stress import STRESS_METRICS
 from compare.testing import DisagreementError, assert_agrees
@@ -44,7 +45,14 @@ KRATOS_MISSES = {"stick"}
 @pytest.mark.slow
 @pytest.mark.skipif(not kratos.available(), reason="Kratos not installed (pip install .[kratos])")
 def test_kratos_driver_hertz(tmp_path):
-    manifest = kratos.run("hertz", tmp_path / "hertz", level=0)
+    out = tmp_path / "hertz"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(CaseError, match="notes.txt"):
+        kratos.run("hertz", out, level=0)
+    manifest = kratos.run("hertz", out, level=0, force=True)
+    assert (out / "notes.txt").read_text() == "mine"
+    assert (out / "multicontact_fem" / "steps.csv").is_file()
     res = verify("hertz", manifest)
     assert "Kratos" in res.source
     assert_agrees(res)

@@ -66,3 +66,28 @@ def test_offscreen_screenshot_not_blank(written, tmp_path):
     assert (tmp_path / "shot.png").is_file()
     assert img.std() > 1.0
     assert len(np.unique(img.reshape(-1, img.shape[-1]), axis=0)) > 10
+
+
+def test_bodies_readable_by_meshio_in_single_precision(written):
+    import meshio
+
+    h, pvd = written
+    step = h.steps[-1]
+    bodies = meshio.read(pvd.parent / f"bodies_{step.index:04d}.vtu")
+    assert bodies.point_data["von_mises"].dtype == np.float32
+    u1, u2 = h.displacement(step)
+    want = np.r_[u1, u2]
+    got = bodies.point_data["displacement"][:, :2].ravel()
+    assert np.max(np.abs(got - want)) <= 1e-6 * np.max(np.abs(want))  # float32: 6e-8
+
+
+def test_stage_ends_only(written, tmp_path):
+    h, _ = written
+    pvd = fem.write_vtk(h, tmp_path, steps="ends")
+    ends = [h.stage(k)[-1].index for k in (1, 2, 3) if h.stage(k)]
+    loaded = h.stage(2)[-1].index
+    names = sorted(p.name for p in tmp_path.glob("*.vtu"))
+    assert names == sorted([f"bodies_{loaded:04d}.vtu"] + [f"interface_{i:04d}.vtu" for i in ends])
+    assert pvd.read_text().count("<DataSet") == len(ends) + 1 < 2 * len(h.steps)
+    with pytest.raises(fem.InputError, match="steps = 'some'"):
+        fem.write_vtk(h, tmp_path, steps="some")
