@@ -25,7 +25,7 @@ PAIR_KEYS = {"label", "phi_inner", "phi_outer"}
 #: The FE extent is judged in finest element lengths h: |FE - actual| <= this, i.e. each edge
 #: within about half an element.  Its relative error is about h / extent, so it is largest at
 #: the smallest load: pair (a) at P A / c = 0.0175 spans 6 elements at level 2, |FE - actual| =
-#: 0.72 h (11 %); level 3 halves h: 0.39 h (3.2 %).  Measured max over the pairs at level 2: 0.72.
+#: 0.71 h (11 %); level 3 halves h: 0.39 h (3.2 %).  Measured max over the pairs at level 2: 0.71.
 FE_EXTENT_ELEMENTS = 1.0
 
 

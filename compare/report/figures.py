@@ -14,6 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 import analytic  # noqa: E402
 from compare._memo import memo  # noqa: E402
@@ -25,6 +26,8 @@ CYCLE_POINTS = 12  # analytic load steps per leg of the cycle plot (analytic.cyc
 ZONE_MARGIN = 0.3
 #: Width (inches) of the widest figure (one column per zone).
 MAX_WIDTH = 13.0
+#: Most x tick labels of a zone panel.
+X_TICKS = 5
 #: Shades of the stick and slip parts of a contact zone (stick-zone and stick-slip figures).
 STICK_SHADE, SLIP_SHADE = "#bcd3ee", "#f4cccc"
 
@@ -54,9 +57,17 @@ def zone_columns(n_zones: int, rows: int, panel: tuple[float, float], ratios=Non
     of one column's panels), at most MAX_WIDTH wide; ``layout="compressed"`` for panels of a
     fixed (true) aspect ratio."""
     width = min(panel[0] * n_zones + 1.0, MAX_WIDTH)
-    return plt.subplots(rows, n_zones, squeeze=False, sharex="col" if sharex else False,
-                        figsize=(width, panel[1]), gridspec_kw={"height_ratios": ratios},
-                        layout=layout)
+    fig, axes = plt.subplots(rows, n_zones, squeeze=False, sharex="col" if sharex else False,
+                             figsize=(width, panel[1]), gridspec_kw={"height_ratios": ratios},
+                             layout=layout)
+    few_x_ticks(axes)
+    return fig, axes
+
+
+def few_x_ticks(axes) -> None:
+    """At most X_TICKS x tick labels per panel (narrow zone panels crowd them otherwise)."""
+    for ax in np.ravel(axes):
+        ax.xaxis.set_major_locator(MaxNLocator(X_TICKS))
 
 
 def stick_map_panel(ax, res: CaseResult, k: int, window: tuple[float, float]) -> None:
@@ -159,7 +170,7 @@ def fig5_figure(rows: list[dict]) -> bytes:
     """Paper Fig. 5: actual vs overlapped extent against P A / c per angle pair (FE points at
     the FE loads), and Pe vs kappa; one legend under the panels."""
     n = len(rows)
-    fig, axes = plt.subplots(1, n + 1, figsize=(3.6 * (n + 1), 3.4))
+    fig, axes = plt.subplots(1, n + 1, figsize=(3.6 * (n + 1), 3.6), layout="constrained")
     for ax, r in zip(axes[:n], rows, strict=True):
         ax.plot(r["PAc"], r["actual"], "k-", label="actual (consistency conditions)")
         ax.plot(r["PAc"], r["overlapped"], "k--", label="overlapped (free interpenetration)")
@@ -172,7 +183,6 @@ def fig5_figure(rows: list[dict]) -> bytes:
         axes[n].plot(r["kappa"], r["Pe"], "-", label=f"Pe of pair ({r['label']})")
     axes[n].set(xlabel="kappa = actual extent / c", ylabel="Pe (%)", title="(d) percent error")
     axes[n].title.set_fontsize(9)
-    fig.tight_layout()
     outside_legend(fig, axes, ncol=3)
     return png(fig)
 
@@ -185,6 +195,6 @@ def outside_legend(fig, axes, ncol: int, **kw) -> None:
         for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
             seen.setdefault(lab, h)
     if seen:
-        fig.legend(list(seen.values()), list(seen), loc="upper center", bbox_to_anchor=(0.5, 0.0),
-                   ncol=ncol, fontsize=8, frameon=False, **kw)
+        fig.legend(list(seen.values()), list(seen), loc="outside lower center", ncol=ncol,
+                   fontsize=8, frameon=False, **kw)
 

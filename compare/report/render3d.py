@@ -2,11 +2,11 @@
 
 The whole bodies are many times wider than the contact: a picture of them shows the zones as
 single pixels.  So the picture shows, per contact zone, the box of the report's contact-region
-figure (:func:`compare.report.region.region_boxes`): the cells of both bodies there, their
-edges drawn (how many elements resolve the zone), on the deformed geometry at true scale, with a
-horizontal colour bar per zone.  Rendering runs in a child process with a time limit: a missing
-EGL/OSMesa/X library can crash VTK outright, and the report must still be written (with the
-reason) when that happens.
+figure (:func:`compare.report.region.region_boxes`): the cells of both bodies there coloured by
+von Mises stress on the deformed geometry at true scale (element edges drawn where they can be
+told apart, MAX_EDGES), with a horizontal colour bar per zone.  Rendering runs in a child
+process with a time limit: a missing EGL/OSMesa/X library can crash VTK outright, and the
+report must still be written (with the reason) when that happens.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from pathlib import Path
 #: Seconds allowed for one off-screen rendering.
 RENDER_TIMEOUT = 120
 #: Pixels of one zone's picture (width, height); at most MAX_COLUMNS zones side by side.
-PANEL_PIXELS = (640, 600)
-MAX_COLUMNS = 3
+PANEL_PIXELS = (600, 560)
+MAX_COLUMNS = 2
 #: Element edges are drawn when about this many elements or fewer span the box (more are a
 #: grey moire at this size).
 MAX_EDGES = 80
@@ -45,11 +45,11 @@ def zone_view(pl, mesh, k, box):
                 line_width=0.5, clim=(0.0, float(np.percentile(vm, 99)) or 1.0),
                 scalar_bar_args={"title": title, "vertical": False, "position_x": 0.15,
                                  "position_y": 0.02, "width": 0.7, "height": 0.1,
-                                 "title_font_size": 18, "label_font_size": 15, "fmt": "%.3g",
+                                 "title_font_size": 18, "label_font_size": 18, "fmt": "%.3g",
                                  "n_labels": 4, "color": "black"})
     pl.scalar_bars[title].SetTextPositionToPrecedeScalarBar()  # tick labels under the bar
     pl.add_text(f"zone {k}, x = {xlo:.4g} .. {xhi:.4g}: von Mises stress", position="upper_edge",
-                font_size=9, color="black")
+                font_size=11, color="black")
     pl.view_xy()
     pl.enable_parallel_projection()
     cx, cy, w, h = 0.5 * (xlo + xhi), 0.5 * (ylo + yhi), xhi - xlo, yhi - ylo

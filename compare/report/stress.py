@@ -19,7 +19,9 @@ import numpy as np  # noqa: E402
 from matplotlib.tri import Triangulation  # noqa: E402
 
 import analytic  # noqa: E402
+from compare import metrics as mt  # noqa: E402
 from compare import stress as cs  # noqa: E402
+from compare.fem_side import kinks  # noqa: E402
 from compare.report.figures import (  # noqa: E402
     caption,
     outside_legend,
@@ -46,10 +48,15 @@ def _shown_states(res: CaseResult) -> list[tuple[int, float, object]]:
 
 def surface_axes(res: CaseResult):
     """Surface sxx of body 2, one panel per contact zone (the zone and BOX_PAD widths each
-    side, cut half-way to a neighbour; one sxx axis): analytic lines, FE nodal points."""
-    zones = res.analytic.normal.zones
+    side, cut half-way to a neighbour; one sxx axis): analytic lines, FE nodal points.  The
+    axis is set by the values outside the singular discs (compare.stress.STRESS_EXCLUSION):
+    sxx is unbounded at a sharp corner."""
+    ns = res.analytic.normal
+    zones = ns.zones
+    points = mt.singular_points(zones, ns.singular, kinks(res.case))
     fig, axes = zone_columns(len(zones), 1, (4.2, 3.6))
     colors = ("k", "tab:blue", "tab:red")
+    shown = []
     for k, win in enumerate(cs.peak_windows(zones)):
         ax = axes[0, k]
         ax.axvspan(*zones[k], color="0.93", zorder=0)
@@ -59,13 +66,22 @@ def surface_axes(res: CaseResult):
             label = "P0, Q = 0" if stage == 1 else f"stage {stage}, Q/Q0 = {Q / res.case.Q0:.2f}"
             ax.plot(xa, sa, "-", color=col, lw=1.2, label=label)
             ax.plot(xf, sf, "o", ms=2.2, color=col)
+            shown += [sa[cs.regular(xa, zones, points)], sf[cs.regular(xf, zones, points)]]
         ax.axhline(0, color="0.7", lw=0.6)
         ax.set(xlim=win, xlabel="x", title=f"zone {k}: [{zones[k][0]:.5g}, {zones[k][1]:.5g}]")
         ax.title.set_fontsize(9)
-    _share_y(axes[0])
+    vals = np.concatenate(shown)
+    vals = vals[np.isfinite(vals)]
+    lo, hi = (vals.min(), vals.max()) if vals.size else (-1.0, 1.0)
+    pad = 0.08 * (hi - lo) or 1.0
+    for i, ax in enumerate(axes[0]):
+        ax.set_ylim(lo - pad, hi + pad)
+        if i:
+            ax.tick_params(labelleft=False)
     axes[0, 0].set_ylabel("sxx(x, 0) of body 2")
+    cut = " (axis cut at the singular edges)" if points else ""
     text = (f"{res.case.name}: surface sxx (tension > 0); lines: analytic, dots: FE nodes; "
-            "grey band: analytic zone")
+            f"grey band: analytic zone{cut}")
     fig.suptitle(caption(text, fig.get_figwidth(), 9), fontsize=9)
     outside_legend(fig, axes, ncol=3)
     return fig
@@ -135,21 +151,24 @@ def ruiz_axes(res: CaseResult):
         stick_map_panel(axes[0, k], res, k, (lo, hi))
         rz = analytic.ruiz(state, np.linspace(lo, hi, RUIZ_POINTS))
         axes[1, k].plot(rz.x, rz.value, "-", color="tab:purple")
-        axes[1, k].plot([rz.x_max], [rz.maximum], "o", color="tab:purple")
         axes[1, k].axvspan(a, b, color="0.93", zorder=0)
         axes[1, k].set(xlim=(lo, hi), xlabel="x")
         axes[0, k].set_title(f"zone {k}: [{a:.5g}, {b:.5g}]", fontsize=9)
-        axes[1, k].set_title(f"Ruiz max {rz.maximum:.3g} at x = {rz.x_max:.5g}", fontsize=9)
+        if rz.maximum > 0:
+            axes[1, k].plot([rz.x_max], [rz.maximum], "o", color="tab:purple")
+            axes[1, k].set_title(f"Ruiz max {rz.maximum:.3g} at x = {rz.x_max:.5g}", fontsize=9)
+        else:
+            axes[1, k].set_title("Ruiz parameter 0: no slip in stage 3", fontsize=9)
         peaks.append(rz.maximum)
     _share_y(axes[1])
     axes[0, 0].set_ylabel("load parameter\n(0: Q = 0, 1: Q = Q0, 2: Q = -Q0)")
     axes[1, 0].set_ylabel("Ruiz max(sxx, 0) |q| |slip|\nat Q = -Q0")
     for ax in axes[0, 1:]:
         ax.tick_params(labelleft=False)
+    where = f" (largest in zone {int(np.argmax(peaks))})" if len(peaks) > 1 else ""
     text = (f"{res.case.name}: stick-slip map over the cycle (analytic: blue stick between "
             "black edges, pink slip, white open; red dots: FE stick edges at every FE step) and "
-            "the Ruiz fretting parameter at the end of stage 3 (largest in zone "
-            f"{int(np.argmax(peaks))})")
+            f"the Ruiz fretting parameter at the end of stage 3{where}")
     fig.suptitle(caption(text, fig.get_figwidth(), 9), fontsize=9)
     return fig
 

@@ -20,7 +20,7 @@ from matplotlib.colors import ListedColormap, Normalize  # noqa: E402
 
 from compare import metrics as mt  # noqa: E402
 from compare.fem_side import kinks  # noqa: E402
-from compare.report.figures import caption, png, zone_windows  # noqa: E402
+from compare.report.figures import caption, few_x_ticks, png, zone_windows  # noqa: E402
 from compare.run import CaseResult  # noqa: E402
 
 #: Colours of the shear states: Q / Q0 from -1 to 1 (viridis without its palest yellow).
@@ -43,6 +43,7 @@ def _grid(n_zones: int, traction_rows: int):
     fig, axes = plt.subplots(2 * traction_rows, n_zones, squeeze=False, sharex="col",
                              figsize=(width, 3.2 * traction_rows + 0.6),
                              gridspec_kw={"height_ratios": ratios}, layout="constrained")
+    few_x_ticks(axes)
     for row in range(2 * traction_rows):  # one y axis per row across the zones
         for ax in axes[row, 1:]:
             ax.sharey(axes[row, 0])

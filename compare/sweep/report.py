@@ -198,7 +198,8 @@ def plot_figure(spec: dict, rows: list[dict], man: dict, labels: dict, stem: str
     plt = _plt()
     ncol = min(3, len(pvals))
     nrow = math.ceil(len(pvals) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False,
+                             layout="constrained")
     ys = sorted({y for p in parts for y in _ys(spec, p)})
     for ax, v in zip(axes.flat, pvals, strict=False):
         prow = [r for r in rows if all(_hashable(r.get(c)) == x
@@ -207,12 +208,23 @@ def plot_figure(spec: dict, rows: list[dict], man: dict, labels: dict, stem: str
         _scale(ax, spec, prow, "x", [spec["x"]])
         _scale(ax, spec, prow, "y", ys)
         ax.set_title(_group_label(pcols, v, labels), fontsize=9)
-        ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(pvals):]:
         ax.set_visible(False)
     title = spec.get("title", f"{', '.join(ys)} vs {spec['x']}")
     fig.suptitle(title, fontsize=11)
+    _legend_below(fig, axes)
     return Figure(stem, title, _caption(spec, parts), _png(fig))
+
+
+def _legend_below(fig, axes) -> None:
+    """One legend under all panels (each label once), where it covers no data."""
+    seen: dict = {}
+    for ax in axes.flat:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            seen.setdefault(lab, h)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), loc="outside lower center", fontsize=8,
+                   ncol=min(3, len(seen)), frameon=False)
 
 
 def _caption(spec: dict, parts: dict) -> str:

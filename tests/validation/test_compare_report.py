@@ -153,7 +153,7 @@ def test_every_figure_of_every_case_is_on_the_page(report):
             assert after.startswith('<img alt="'), t
             assert after.split("src=", 1)[1].startswith('"data:image/png;base64,'), t
             assert f"![{t}](figures/{name}_" in md
-        assert "FE mesh around each contact zone" in sec
+        assert "von Mises stress around each contact zone" in sec
         assert ('pyvista picture' in sec) == bool(case["render"])
     conv = parts["conv-hertz"]
     assert "True" not in conv and "False" not in conv

@@ -144,5 +144,6 @@ def test_slow_backend_is_announced() -> None:
         return SimpleNamespace(result=SimpleNamespace(fem=SimpleNamespace(backend=backend)))
 
     assert html.backend_notice([section("cholmod")]) == ""
+    assert html.backend_notice([section("multicontact fem")]) == ""  # a verified result
     loud = html.backend_notice([section("cholmod"), section("scipy-splu")])
     assert "scipy-splu" in loud and "CHOLMOD" in loud and 'class="loud"' in loud
