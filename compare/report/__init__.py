@@ -2,11 +2,12 @@
 ``DIR/summary.json``.
 
 Per case: a header line (sparse backend, DOFs, elements, the verdict with the worst metric
-relative to its tolerance, run time), the metrics table with pass/fail, matplotlib figures
-(pressure and shear with one panel per contact zone and FE - analytic under each, stick zones
-over the cycle, sigma_xx around the contact with the interface status), a small pyvista
-off-screen picture of the whole deformed bodies coloured by von Mises stress, and links to the
-VTK series (``DIR/vtk/<case>/history.pvd``).  A case run without CHOLMOD is announced at the
+relative to its tolerance, run time), the metrics table with pass/fail, matplotlib figures with
+one column per contact zone, zoomed to it, x horizontal (pressure and shear with FE - analytic
+under each, sigma_xx around each zone with the interface status, surface sxx, subsurface
+maximum shear, the stick-slip map over the cycle with the Ruiz parameter), a pyvista off-screen
+picture of each zone's surroundings coloured by von Mises stress, and links to the VTK series
+(``DIR/vtk/<case>/history.pvd``).  A case run without CHOLMOD is announced at the
 top.  Optional convergence studies (log-log plots with observed orders) and the paper's Fig. 5
 study page (``DIR/study_fig5.html``).  Everything is written into a temporary directory next
 to ``DIR`` and renamed into place at the end, so a failed run leaves no partial report.  The
