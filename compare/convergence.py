@@ -21,7 +21,7 @@ least-squares slopes of ``log(error)`` against ``log(parameter)``:
 
 Honesty: besides the least-squares orders the study reports the local order and the ratio of
 successive errors; an error whose local order over the last refinement is below STALL_ORDER
-*stalls* and the study does not converge (``verdict()``: ``converges: False -- stalls at ...``).
+*stalls* and the study does not converge (``verdict()``: ``does not converge: stalls at ...``).
 The orders theory expects for the element order are in EXPECTED_ORDERS, with the reason.
 
 Richardson extrapolation of every FE contact edge over the three finest levels (refinement
@@ -43,6 +43,7 @@ from compare import metrics as mt
 from compare.analytic_side import solve_case
 from compare.cases import Case, load_case
 from compare.run import CaseResult, run_case
+from compare.tolerances import EDGE_RTOL
 
 TRACKED = ("edge_error_max", "pressure_l2_error", "stick_edge_error_max", "shear_l2_error")
 #: A study "converges" when every tracked error is smaller at the finest run than at the coarsest,
@@ -111,14 +112,32 @@ class ConvergenceStudy:
     timings: tuple
 
     def verdict(self) -> str:
-        """One line: 'converges: True' or 'converges: False -- stalls at ...' / why not."""
+        """One line in words: 'converges' (penalty: with how far the edges move) or 'does not
+        converge: stalls at ...' / why not."""
         if self.converges and self.kind == "penalty":
-            return (f"converges: True -- the FE edges move by {self.edge_shift:.2e} of the zone "
-                    f"width over the penalty range (<= {PENALTY_EDGE_SHIFT:g})")
+            return (f"converges: the FE edges move by {self.edge_shift:.2e} of the zone width "
+                    f"over the penalty range (<= {PENALTY_EDGE_SHIFT:g})")
         if self.converges:
-            return "converges: True"
-        return "converges: False -- " + _failure(self.orders, self.errors, self.stall, self.kind,
-                                                 self.edge_shift)
+            return "converges"
+        return "does not converge: " + _failure(self.orders, self.errors, self.stall, self.kind,
+                                                self.edge_shift)
+
+    def richardson_line(self) -> str:
+        """The Richardson estimate in words (h-studies; '' otherwise): the extrapolated edges'
+        error relative to the zone width, or why the extrapolation was refused."""
+        if self.kind != "h":
+            return ""
+        if math.isfinite(self.richardson_error):
+            within = "within" if self.richardson_error <= EDGE_RTOL else "outside"
+            return (f"Richardson-extrapolated edges: error / zone width {self.richardson_error:.3e}"
+                    f" ({within} the edge tolerance {EDGE_RTOL:g})")
+        return (f"Richardson extrapolation of the edges refused ({self.richardson_reason}): the "
+                "finest runs are not in the asymptotic range of a power law, so the edges are "
+                "judged by their observed orders only")
+
+    def applies(self, metric: str) -> bool:
+        """False for a metric the case does not have (stick and shear of a normal-only case)."""
+        return bool(np.any(np.isfinite(self.errors[metric])))
 
     def summary(self) -> dict:
         return {"case": self.case_name, "kind": self.kind, "values": _clean(self.values),
@@ -285,18 +304,16 @@ def convergence_text(st: ConvergenceStudy) -> str:
     lines = [f"{st.case_name}: {st.kind}-convergence, {st.verdict()}",
              f"  {head:<22} " + " ".join(f"{v:>10g}" for v in st.values)]
     for m, vals in st.errors.items():
-        if not np.any(np.isfinite(vals)):
+        if not st.applies(m):
             continue
         lines.append(f"  {m:<22} " + " ".join(f"{v:10.3e}" for v in vals)
                      + f"   order {st.orders[m]:.2f} (last {st.local_orders[m][-1]:.2f})")
         lines.append(f"  {'  ratio e_i/e_i+1':<22} " + " " * 11
                      + " ".join(f"{r:10.2f}" for r in st.ratios[m]))
     for m, (order, why) in st.expected.items():
-        if np.any(np.isfinite(st.errors[m])):
+        if st.applies(m):
             lines.append(f"  expected {m}: ~{order:g} ({why})")
     if st.kind == "h":
-        rich = (f"{st.richardson_error:.3e}" if math.isfinite(st.richardson_error)
-                else f"refused ({st.richardson_reason})")
-        lines.append(f"  Richardson edge error / width: {rich}")
+        lines.append(f"  {st.richardson_line()}")
     lines.append(f"  FE edges move by {st.edge_shift:.3e} of the zone width over the runs")
     return "\n".join(lines)

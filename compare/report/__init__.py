@@ -2,11 +2,12 @@
 ``DIR/summary.json``.
 
 Per case: a header line (sparse backend, DOFs, elements, the verdict with the worst metric
-relative to its tolerance, run time), the metrics table with pass/fail, matplotlib figures
-(pressure and shear with one panel per contact zone and FE - analytic under each, stick zones
-over the cycle, sigma_xx around the contact with the interface status), a small pyvista
-off-screen picture of the whole deformed bodies coloured by von Mises stress, and links to the
-VTK series (``DIR/vtk/<case>/history.pvd``).  A case run without CHOLMOD is announced at the
+relative to its tolerance, run time), the metrics table with pass/fail, matplotlib figures with
+one column per contact zone, zoomed to it, x horizontal (pressure and shear with FE - analytic
+under each, sigma_xx around each zone with the interface status, surface sxx, subsurface
+maximum shear, the stick-slip map over the cycle with the Ruiz parameter), a pyvista off-screen
+picture of each zone's surroundings coloured by von Mises stress, and links to the VTK series
+(``DIR/vtk/<case>/history.pvd``).  A case run without CHOLMOD is announced at the
 top.  Optional convergence studies (log-log plots with observed orders) and the paper's Fig. 5
 study page (``DIR/study_fig5.html``).  ``DIR`` is written through
 :func:`compare.fileio.owned_output`: a folder holding files multicontact did not write is refused
@@ -76,7 +77,6 @@ def _write_figs(sec: CaseSection, root: Path) -> None:
     res = sec.result
     made = {"pressure (stage 1 end), per zone": zones.pressure_figure(res),
             "shear (stages 2 and 3), per zone": zones.shear_figure(res),
-            "stick zones over the cycle": figures.stick_cycle_figure(res),
             "contact region: sigma_xx and interface status": region.region_figure(res)}
     made.update(stress_figures(res))
     sec.figures = {k: v for k, v in made.items() if v is not None}
@@ -104,7 +104,7 @@ def _write_vtk(sec: CaseSection, root: Path, vtk: str = "ends") -> tuple | None:
     if not vtu.is_file():
         sec.render_note = f"no pyvista picture: {vtu.name} not found in the VTK series"
         return None
-    return vtu, root / "figures" / f"{res.case.name}_bodies.png", region.region_box(res)
+    return vtu, root / "figures" / f"{res.case.name}_bodies.png", region.region_boxes(res)
 
 
 def _render(sections: list[CaseSection], jobs: list, root: Path) -> None:
@@ -265,19 +265,26 @@ def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, pro
 
 
 def _write_documents(root: Path, sections, studies, conv_figs, want_fig5, summary) -> None:
-    from compare.report.html import convergence_html, convergence_md, index_body, md_document
+    from compare.report.html import (
+        convergence_html,
+        convergence_md,
+        fig5_index_html,
+        fig5_verdict,
+        index_body,
+        md_document,
+    )
 
     body = index_body(sections, summary) + "".join(case_html(s) for s in sections)
     body += "".join(convergence_html(st, conv_figs[st.case_name]) for st in studies)
     if want_fig5:
-        body += ('<h2 id="fig5">Study: paper Fig. 5</h2><p><a href="study_fig5.html">'
-                 "Actual vs overlapped extent of the double wedge (study page)</a></p>")
+        body += fig5_index_html(summary["fig5"])
     (root / "index.html").write_text(page("multicontact verification report", body),
                                      encoding="utf-8")
     md = md_document(summary) + "".join(case_md(s) for s in sections)
     md += "".join(convergence_md(st) for st in studies)
     if want_fig5:
-        md += "\n## Study: paper Fig. 5\n\n![Fig. 5](figures/fig5.png)\n\nSee study_fig5.html.\n"
+        md += (f"\n## Study: paper Fig. 5\n\n{fig5_verdict(summary['fig5'])}.\n\n"
+               "![Fig. 5](figures/fig5.png)\n\nSee study_fig5.html.\n")
     (root / "report.md").write_text(md, encoding="utf-8")
     (root / "summary.json").write_text(json.dumps(clean_json(summary), indent=1,
                                                   allow_nan=False), encoding="utf-8")

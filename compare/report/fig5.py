@@ -1,7 +1,9 @@
 """Study: the paper's Fig. 5 (actual vs overlapped extent of the double wedge, Pe vs kappa).
 
 The analytic curves come from ``analytic.fig5_data``; FE points are the right-zone widths of
-one FE normal-load history per angle pair (every stage-1 increment is one load).  Settings live
+one FE normal-load history per angle pair (every stage-1 increment is one load), judged against
+the analytic extent solved at the same loads (:data:`FE_EXTENT_ELEMENTS`).  Loads are shown as
+P A / c, the scale of the ``fig5_sweep`` sweep report.  Settings live
 in ``compare/studies/fig5.toml``.
 """
 
@@ -20,6 +22,11 @@ from compare.errors import CaseError
 STUDY_KEYS = {"description", "c", "E", "nu", "load_min", "load_max", "n_loads", "fem_level",
               "fem_increments", "pairs"}
 PAIR_KEYS = {"label", "phi_inner", "phi_outer"}
+#: The FE extent is judged in finest element lengths h: |FE - actual| <= this, i.e. each edge
+#: within about half an element.  Its relative error is about h / extent, so it is largest at
+#: the smallest load: pair (a) at P A / c = 0.0175 spans 6 elements at level 2, |FE - actual| =
+#: 0.71 h (11 %); level 3 halves h: 0.39 h (3.2 %).  Measured max over the pairs at level 2: 0.71.
+FE_EXTENT_ELEMENTS = 1.0
 
 
 def study_file() -> Path:
@@ -43,8 +50,9 @@ def load_study(path: Path | None = None) -> dict:
 
 
 def fem_extents(doc: dict, phi1: float, phi2: float, A: float, P_max: float
-                ) -> tuple[list[float], list[float]]:
-    """FE right-zone widths at the stage-1 increments of one normal-load history."""
+                ) -> tuple[list[float], list[float], float]:
+    """FE right-zone widths at the stage-1 increments of one normal-load history, and the
+    finest element length h of its mesh."""
     prof = analytic.profiles.double_wedge(doc["c"], phi1, phi2)
     ns = analytic.solve_normal(prof, P_max, A)
     lo, hi = ns.zones[0][0], ns.zones[-1][1]
@@ -57,13 +65,15 @@ def fem_extents(doc: dict, phi1: float, phi2: float, A: float, P_max: float
     for s in hist.stage(1):
         right = [z for z in s.contact_zones if z[0] > 0]
         if right:
-            P.append(s.P)
-            ext.append(right[0][1] - right[0][0])
-    return P, ext
+            P.append(float(s.P))
+            ext.append(float(right[0][1] - right[0][0]))
+    return P, ext, float(hist.h_min)
 
 
 def fig5_rows(doc: dict | None = None) -> list[dict]:
-    """Per angle pair: loads, actual / overlapped extents, Pe, kappa and FE points."""
+    """Per angle pair: loads (``P`` and the scale-free ``PAc`` = P A / c of the sweep report),
+    actual / overlapped extents, Pe, kappa, and the FE points: loads, extents, the analytic
+    extent solved at those loads (``fem_actual``) and the finest element length ``fem_h``."""
     doc = doc or load_study()
     A = 4 * (1 - doc["nu"] ** 2) / doc["E"]
     rows = []
@@ -72,14 +82,27 @@ def fig5_rows(doc: dict | None = None) -> list[dict]:
         scale = doc["c"] * np.tan(min(phi1, phi2)) / A
         loads = np.geomspace(doc["load_min"], doc["load_max"], doc["n_loads"]) * scale
         d = analytic.fig5_data(phi1, phi2, loads, c=doc["c"], A=A)
-        fP, fe = fem_extents(doc, phi1, phi2, A, float(loads[-1]))
+        fP, fe, h = fem_extents(doc, phi1, phi2, A, float(loads[-1]))
+        at_fe = analytic.fig5_data(phi1, phi2, np.asarray(fP), c=doc["c"], A=A).actual if fP \
+            else np.zeros(0)
         rows.append({"label": pr["label"], "phi1": phi1, "phi2": phi2, "P": d.P.tolist(),
-                     "actual": d.actual.tolist(), "overlapped": d.overlapped.tolist(),
-                     "Pe": d.Pe.tolist(), "kappa": d.kappa.tolist(), "fem_P": fP,
-                     "fem_extent": fe, "fem_actual": _interp(d.P, d.actual, fP)})
+                     "PAc": (d.P * A / doc["c"]).tolist(), "actual": d.actual.tolist(),
+                     "overlapped": d.overlapped.tolist(), "Pe": d.Pe.tolist(),
+                     "kappa": d.kappa.tolist(), "fem_P": fP,
+                     "fem_PAc": [v * A / doc["c"] for v in fP], "fem_extent": fe,
+                     "fem_actual": at_fe.tolist(), "fem_h": h})
     return rows
 
 
-def _interp(P: np.ndarray, y: np.ndarray, Pq: list[float]) -> list[float]:
-    """Analytic extent at the FE loads (log-linear interpolation of the analytic curve)."""
-    return np.interp(np.log(Pq), np.log(P), y).tolist() if Pq else []
+def fe_deviation(row: dict) -> dict | None:
+    """The FE extents of one pair judged against FE_EXTENT_ELEMENTS: the largest
+    ``|FE - actual|`` in finest element lengths, the largest relative deviation with its load
+    (P A / c) and the zone width there in elements; None without FE points."""
+    if not row["fem_extent"]:
+        return None
+    fe, act, h = np.asarray(row["fem_extent"]), np.asarray(row["fem_actual"]), row["fem_h"]
+    dev = np.abs(fe - act)
+    rel = dev / act
+    i = int(np.argmax(rel))
+    return {"elements": float(dev.max() / h), "passed": bool(dev.max() / h <= FE_EXTENT_ELEMENTS),
+            "rel": float(rel[i]), "PAc": row["fem_PAc"][i], "across": float(act[i] / h)}

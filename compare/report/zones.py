@@ -15,14 +15,17 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.cm import ScalarMappable  # noqa: E402
+from matplotlib.colors import ListedColormap, Normalize  # noqa: E402
 
 from compare import metrics as mt  # noqa: E402
 from compare.fem_side import kinks  # noqa: E402
-from compare.report.figures import png  # noqa: E402
+from compare.report.figures import caption, few_x_ticks, png, zone_windows  # noqa: E402
 from compare.run import CaseResult  # noqa: E402
 
-#: Each zone panel shows the zone widened by this fraction of its width on each side.
-ZONE_MARGIN = 0.3
+#: Colours of the shear states: Q / Q0 from -1 to 1 (viridis without its palest yellow).
+Q_NORM = Normalize(-1.0, 1.0)
+Q_CMAP = ListedColormap(plt.cm.viridis(np.linspace(0.0, 0.9, 256)))
 #: Width (inches) of one zone column; the figure is at most MAX_WIDTH wide.
 PANEL_WIDTH, MAX_WIDTH = 4.2, 13.0
 #: Analytic curve samples per zone panel.
@@ -33,18 +36,14 @@ CURVE_POINTS = 600
 TOP_FACTOR = 1.6
 
 
-def zone_windows(zones) -> list[tuple[float, float]]:
-    """The x range of each zone's panel: the zone widened by ZONE_MARGIN of its width."""
-    return [(a - ZONE_MARGIN * (b - a), b + ZONE_MARGIN * (b - a)) for a, b in zones]
-
-
 def _grid(n_zones: int, traction_rows: int):
     """Axes: for each traction row, a traction panel and an error panel under it, per zone."""
     width = min(PANEL_WIDTH * n_zones + 1.2, MAX_WIDTH)
     ratios = [3, 1.3] * traction_rows
     fig, axes = plt.subplots(2 * traction_rows, n_zones, squeeze=False, sharex="col",
                              figsize=(width, 3.2 * traction_rows + 0.6),
-                             gridspec_kw={"height_ratios": ratios})
+                             gridspec_kw={"height_ratios": ratios}, layout="constrained")
+    few_x_ticks(axes)
     for row in range(2 * traction_rows):  # one y axis per row across the zones
         for ax in axes[row, 1:]:
             ax.sharey(axes[row, 0])
@@ -124,8 +123,8 @@ def pressure_axes(res: CaseResult):
         reg = _regular(res, it.x[m])
         fe_reg.append(it.p[m][reg])
         _mark_zone(ax, ns.zones[k], fe_zones[k])
-        ax.plot(x, curves[-1], "k-", lw=1.2, label="analytic")
-        ax.plot(it.x[m], it.p[m], "o", ms=2.5, color="tab:red", label="FE nodes")
+        ax.plot(x, curves[-1], "k-", lw=1.2)
+        ax.plot(it.x[m], it.p[m], "o", ms=2.5, color="tab:red")
         worst = max(worst, _error_panel(err, it.x[m], it.p[m] - ns.pressure(it.x[m]), reg,
                                         "tab:red"))
         ax.set_xlim(lo, hi)
@@ -135,9 +134,10 @@ def pressure_axes(res: CaseResult):
     _set_error_limits(axes[1], worst)
     axes[0, 0].set_ylabel("p(x)")
     axes[1, 0].set_ylabel("p_FE - p_an")
-    axes[0, 0].legend(loc="upper right", fontsize=7)
-    fig.suptitle(f"{res.case.name}: pressure at P = {res.case.P:g} (grey: analytic zone, "
-                 "red dotted: FE edges; hollow: next to a singular point)", fontsize=9)
+    text = (f"{res.case.name}: pressure at P = {res.case.P:g}; black line: analytic, red dots: "
+            "FE nodes (hollow: next to a singular point, left out of the metrics); grey band: "
+            "analytic zone, red dotted lines: FE edges")
+    fig.suptitle(caption(text, fig.get_figwidth(), 9), fontsize=9)
     return fig
 
 
@@ -159,14 +159,17 @@ def shear_axes(res: CaseResult):
         err.set_xlabel("x")
     for k, zone in enumerate(ns.zones):
         axes[0, k].set_title(f"zone {k}: [{zone[0]:.5g}, {zone[1]:.5g}]", fontsize=9)
-    fig.suptitle(f"{res.case.name}: shear at the sampled Q (lines analytic, dots FE; "
-                 "hollow: next to a singular point)", fontsize=9)
+    fig.colorbar(ScalarMappable(Q_NORM, Q_CMAP), ax=axes, label="Q / Q0 of the state",
+                 aspect=40)
+    text = (f"{res.case.name}: shear at the sampled Q, coloured by Q / Q0; lines: analytic, "
+            "dots: FE nodes (hollow: next to a singular point, left out of the metrics)")
+    fig.suptitle(caption(text, fig.get_figwidth(), 9), fontsize=9)
     return fig
 
 
 def _shear_rows(res: CaseResult, q_axes, e_axes, states) -> None:
     ns = res.analytic.normal
-    colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(states), 1)))
+    colors = [Q_CMAP(Q_NORM(st.Q / res.case.Q0)) for st in states]
     curves, fe_reg, worst = [], [], 0.0
     for k, (lo, hi) in enumerate(zone_windows(ns.zones)):
         x = _curve_x(lo, hi, ns.zones[k])
@@ -177,8 +180,7 @@ def _shear_rows(res: CaseResult, q_axes, e_axes, states) -> None:
             reg = _regular(res, it.x[m])
             curves.append(st.shear(x))
             fe_reg.append(it.q[m][reg])
-            q_axes[k].plot(x, curves[-1], "-", color=col, lw=1.1,
-                           label=f"Q/Q0 = {st.Q / res.case.Q0:.2f}")
+            q_axes[k].plot(x, curves[-1], "-", color=col, lw=1.1)
             q_axes[k].plot(it.x[m], it.q[m], "o", ms=2.0, color=col)
             worst = max(worst, _error_panel(e_axes[k], it.x[m], it.q[m] - st.shear(it.x[m]),
                                             reg, col))
@@ -187,5 +189,3 @@ def _shear_rows(res: CaseResult, q_axes, e_axes, states) -> None:
     top = _traction_top(curves, fe_reg) if curves else 1.0
     q_axes[0].set_ylim(-top, top)
     _set_error_limits(e_axes, worst)
-    if states:
-        q_axes[0].legend(fontsize=7, loc="best")

@@ -196,21 +196,34 @@ def plot_figure(spec: dict, rows: list[dict], man: dict, labels: dict, stem: str
     plt = _plt()
     ncol = min(3, len(pvals))
     nrow = math.ceil(len(pvals) / ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False,
+                             layout="constrained")
     ys = sorted({y for p in parts for y in _ys(spec, p)})
     for ax, v in zip(axes.flat, pvals, strict=False):
         prow = [r for r in rows if all(_hashable(r.get(c)) == x
                                        for c, x in zip(pcols, v, strict=True))]
         _panel(ax, prow, spec, parts, labels)
+        ax.set_ylabel(", ".join(_label(labels, y) for y in ys), fontsize=9)
         _scale(ax, spec, prow, "x", [spec["x"]])
         _scale(ax, spec, prow, "y", ys)
         ax.set_title(_group_label(pcols, v, labels), fontsize=9)
-        ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(pvals):]:
         ax.set_visible(False)
     title = spec.get("title", f"{', '.join(ys)} vs {spec['x']}")
     fig.suptitle(title, fontsize=11)
+    _legend_below(fig, axes)
     return Figure(stem, title, _caption(spec, parts), _png(fig))
+
+
+def _legend_below(fig, axes) -> None:
+    """One legend under all panels (each label once), where it covers no data."""
+    seen: dict = {}
+    for ax in axes.flat:
+        for h, lab in zip(*ax.get_legend_handles_labels(), strict=True):
+            seen.setdefault(lab, h)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), loc="outside lower center", fontsize=8,
+                   ncol=min(3, len(seen)), frameon=False)
 
 
 def _caption(spec: dict, parts: dict) -> str:
@@ -297,12 +310,15 @@ def figures(man: dict, rows: list[dict]) -> list[Figure]:
 # ---------------------------------------------------------------------------------------------
 # tables and documents
 # ---------------------------------------------------------------------------------------------
-def part_table(part: dict, rows: list[dict]) -> tuple[list[str], list[list[str]]]:
-    """Header and rows of a part's case table: parameters, default metrics, status, time."""
+def part_table(part: dict, rows: list[dict], labels: dict | None = None
+               ) -> tuple[list[str], list[list[str]]]:
+    """Header and rows of a part's case table: parameters, default metrics, status, time; a
+    column's header is its label of the sweep file's [report.labels] (the figures' axes)."""
     prow = [r for r in rows if r["part"] == part["name"]]
     metrics = [m for m in DEFAULT_METRICS.get(part["task"], []) if any(m in r for r in prow)]
     cols = ["index", *part["parameters"], *metrics, "status", "wall_s"]
-    return cols, [[_fmt(r.get(c)) for c in cols] for r in prow]
+    head = [_label(labels or {}, c) for c in cols]
+    return head, [[_fmt(r.get(c)) for c in cols] for r in prow]
 
 
 def summary(man: dict, rows: list[dict]) -> dict:
@@ -322,6 +338,10 @@ def summary(man: dict, rows: list[dict]) -> dict:
             "failures": failed}
 
 
+def _labels(man: dict) -> dict:
+    return (man.get("report") or {}).get("labels", {})
+
+
 def _md_table(cols: list[str], body: list[list[str]]) -> str:
     head = "| " + " | ".join(cols) + " |\n|" + "---|" * len(cols) + "\n"
     return head + "".join("| " + " | ".join(r) + " |\n" for r in body)
@@ -335,7 +355,7 @@ def markdown(man: dict, rows: list[dict], figs: list[Figure], summ: dict) -> str
         out.append(f"## {f.title}\n\n![{f.title}](figures/{f.stem}.png)\n\n{f.caption}\n")
     for p in man["parts"]:
         out.append(f"## Part `{p['name']}` (task `{p['task']}`)\n")
-        out.append(_md_table(*part_table(p, rows)))
+        out.append(_md_table(*part_table(p, rows, _labels(man))))
     if summ["failures"]:
         out.append("## Failed cases\n")
         out.append(_md_table(["part", "index", "error"],
@@ -369,7 +389,8 @@ def html_page(man: dict, rows: list[dict], figs: list[Figure], summ: dict) -> st
                    f"src='data:image/png;base64,{data}'><p>{esc(f.caption)}</p>")
     for p in man["parts"]:
         out.append(f"<h2>Part {esc(p['name'])} (task {esc(p['task'])})</h2><details open>"
-                   f"<summary>cases</summary>{_html_table(*part_table(p, rows))}</details>")
+                   f"<summary>cases</summary>{_html_table(*part_table(p, rows, _labels(man)))}"
+                   "</details>")
     if summ["failures"]:
         out.append("<h2>Failed cases</h2>" + _html_table(
             ["part", "index", "error"],

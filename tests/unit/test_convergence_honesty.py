@@ -11,6 +11,7 @@ import pytest
 
 from compare import metrics as mt
 from compare.convergence import STALL_ORDER, TRACKED, assemble, convergence_text
+from compare.tolerances import EDGE_RTOL
 
 H = [0.04, 0.02, 0.01, 0.005]
 ZONES = [(-1.0, 1.0)]
@@ -33,7 +34,7 @@ def study(errs: dict, b: list[float], kind: str = "h", values=(0, 1, 2, 3), par=
 
 def test_first_order_sequence_converges_with_its_order_and_ratios():
     st = study(errors(), [1.0 + 0.3 * h for h in H])
-    assert st.converges and st.verdict() == "converges: True" and not st.stall
+    assert st.converges and st.verdict() == "converges" and not st.stall
     assert st.orders["pressure_l2_error"] == pytest.approx(1.0)
     assert st.local_orders["edge_error_max"] == pytest.approx([1.0, 1.0, 1.0])
     assert st.ratios["shear_l2_error"] == pytest.approx([2.0, 2.0, 2.0])
@@ -45,7 +46,7 @@ def test_a_stalling_edge_error_is_reported_as_a_stall():
     st = study(errors(3, edge_error_max=[2.4e-3, 8.8e-4, 1.1e-3]), [1.0, 1.001, 1.002],
                values=(0, 1, 2), par=H[:3])
     assert not st.converges
-    assert st.verdict().startswith("converges: False -- stalls at level 2: edge_error_max")
+    assert st.verdict().startswith("does not converge: stalls at level 2: edge_error_max")
     assert st.local_orders["edge_error_max"][-1] < STALL_ORDER
 
 
@@ -109,3 +110,23 @@ def test_richardson_refuses_a_sequence_crossing_the_limit():
     -3.25e-5, +8.1e-6): estimated order 0.55, an extrapolated error 12x the finest one."""
     val, order, why = mt.richardson_check([-9.2e-5, -3.25e-5, 8.1e-6])
     assert math.isnan(val) and 0.5 < order < 0.75 and "outside" in why
+
+
+def test_words_not_literals_and_rows_the_case_lacks_are_left_out():
+    """Issue 26: the report said 'converges: True' and listed stick and shear rows for Hertz;
+    the CLI text, the report and the figure now share the verdict and the Richardson line."""
+    nan = [math.nan] * 3
+    st = study(errors(3, stick_edge_error_max=nan, shear_l2_error=nan), [1.0, 1.1, 1.2],
+               values=(0, 1, 2), par=H[:3])
+    assert st.converges and st.verdict() == "converges"
+    assert not st.applies("shear_l2_error") and st.applies("pressure_l2_error")
+    line = st.richardson_line()
+    assert line.startswith("Richardson extrapolation of the edges refused (edge 0: ")
+    text = convergence_text(st)
+    assert "stick_edge_error_max" not in text and "shear_l2_error" not in text
+    assert line in text and "True" not in text
+    good = study(errors(), [1.0 + 0.3 * h for h in H])
+    assert good.richardson_line().endswith(f"(within the edge tolerance {EDGE_RTOL:g})")
+    stalled = study(errors(3, edge_error_max=[2.4e-3, 8.8e-4, 1.1e-3]), [1.0, 1.001, 1.002],
+                    values=(0, 1, 2), par=H[:3])
+    assert stalled.verdict().startswith("does not converge: stalls at level 2")

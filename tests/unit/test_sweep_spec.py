@@ -183,3 +183,22 @@ def test_report_of_a_directory_that_is_not_a_sweep_says_what_to_run(tmp_path):
     with pytest.raises(SweepError, match=hint):
         write_sweep_report(tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_report_plot_legend_outside_the_panels_and_labelled_axes(monkeypatch):
+    """Issue 26: a legend inside a panel covered the curves; now one legend under the
+    panels, the y axis named, and the case tables headed by the sweep file's labels."""
+    from compare.sweep import report as rp
+
+    monkeypatch.setattr(rp, "_png", lambda fig: fig)
+    man = {"parts": [{"name": "an", "task": "overlap", "parameters": ["load.P"]},
+                     {"name": "fe", "task": "fem_overlap", "parameters": ["load.P"]}]}
+    rows = [{"part": p, "status": "ok", "load.P": P, "extent": P ** 0.5, "index": i}
+            for p in ("an", "fe") for i, P in enumerate((0.01, 0.04, 0.09))]
+    labels = {"load.P": "P A / c", "extent": "actual extent"}
+    spec = {"x": "load.P", "y": ["extent"], "panels": [], "series": []}
+    fig = rp.plot_figure(spec, rows, man, labels, "plot1").png
+    assert not any(ax.get_legend() for ax in fig.axes) and len(fig.legends) == 1
+    assert fig.axes[0].get_xlabel() == "P A / c" and fig.axes[0].get_ylabel() == "actual extent"
+    head, body = rp.part_table(man["parts"][0], rows, labels)
+    assert head[:2] == ["index", "P A / c"] and len(body) == 3

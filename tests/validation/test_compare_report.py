@@ -103,6 +103,8 @@ def test_pyvista_picture_or_reason(report):
 def test_renders_in_headless_chromium(report, tmp_path):
     shot = tmp_path / "shot.png"
     subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu",
+                    "--disable-background-networking", "--disable-component-update",
+                    "--disable-sync", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}",
                     f"--screenshot={shot}", "--window-size=1200,2000",
                     (report / "index.html").as_uri()], capture_output=True, timeout=120,
                    check=False)
@@ -116,6 +118,50 @@ def test_renders_in_headless_chromium(report, tmp_path):
     saturation = rgb.max(axis=2) - rgb.min(axis=2)
     coloured = np.mean(saturation > 0.3)  # plot lines/points, pyvista colours, pass marks
     assert coloured > 0.005, f"figures not visible: {coloured:.2%} coloured pixels"
+
+
+#: Figures of a case with tangential load (the stick-slip map and the shear need Q0 > 0).
+FIGURES = ("pressure (stage 1 end), per zone", "shear (stages 2 and 3), per zone",
+           "contact region: sigma_xx and interface status", "surface sxx (body 2)",
+           "subsurface max shear: analytic | FE",
+           "stick-slip map over the cycle and Ruiz parameter")
+NORMAL_ONLY = {"shear (stages 2 and 3), per zone",
+               "stick-slip map over the cycle and Ruiz parameter"}
+
+
+def _sections(text: str) -> dict[str, str]:
+    """Case id -> its part of the page (up to the next h2)."""
+    parts = re.split(r'(?=<h2 id=")', text)
+    return {re.match(r'<h2 id="([^"]+)"', p).group(1): p for p in parts if p.startswith("<h2")}
+
+
+def test_every_figure_of_every_case_is_on_the_page(report):
+    """Each case has every figure (h3 title, then an embedded PNG), the mesh picture or the
+    reason, the same figures as files linked from report.md; the convergence section says its
+    verdict in words and leaves out what a normal-only case does not have."""
+    text = (report / "index.html").read_text()
+    md = (report / "report.md").read_text()
+    s = json.loads((report / "summary.json").read_text())
+    parts = _sections(text)
+    for case in s["cases"]:
+        name = case["case"]["name"]
+        sec = parts[name]
+        want = [t for t in FIGURES if case["case"]["Q0"] > 0 or t not in NORMAL_ONLY]
+        titles = re.findall(r"<h3>(.*?)</h3>", sec)
+        assert titles[:len(want)] == want, titles
+        for t in want:
+            after = sec.split(f"<h3>{t}</h3>", 1)[1]
+            assert after.startswith('<img alt="'), t
+            assert after.split("src=", 1)[1].startswith('"data:image/png;base64,'), t
+            assert f"![{t}](figures/{name}_" in md
+        assert "von Mises stress around each contact zone" in sec
+        assert ('pyvista picture' in sec) == bool(case["render"])
+    conv = parts["conv-hertz"]
+    assert "True" not in conv and "False" not in conv
+    assert "converges" in conv and "Richardson" in conv
+    assert ">stick_edge_error_max<" not in conv and ">shear_l2_error<" not in conv
+    assert ">pressure_l2_error<" in conv
+    assert "all 2 cases agree" in text
 
 
 @pytest.mark.slow
