@@ -73,7 +73,8 @@ class CaseResult:
     :class:`Check` per named tolerance); timings (seconds); vtk (path of the .pvd or None);
     source: what was verified ('multicontact fem' or the external code and its files, see
     ``compare.verify``); unavailable: metric -> why the result cannot give it (reported as
-    "not available", not as a pass of a measurement).
+    "not available", not as a pass of a measurement); notes: what was done to the input
+    before measuring (e.g. small negative pressures clipped, ``compare.verify``).
     """
 
     case: Case
@@ -87,6 +88,7 @@ class CaseResult:
     vtk: str | None = None
     source: str = "multicontact fem"
     unavailable: dict = field(default_factory=dict)
+    notes: tuple = ()
 
     @property
     def passed(self) -> bool:
@@ -103,6 +105,7 @@ class CaseResult:
                             "tolerance": c.tolerance, "status": c.status} for c in self.checks],
                 "zones": self.zones, "samples": self.samples, "timings": self.timings,
                 "vtk": self.vtk, "source": self.source, "unavailable": self.unavailable,
+                "notes": list(self.notes),
                 "fem": {"n_dofs": self.fem.n_dofs, "order": self.fem.order,
                         "h_min": self.fem.h_min, "backend": self.fem.backend}}
 

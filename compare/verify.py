@@ -162,7 +162,7 @@ def verify(case: Case | str | Path, result: ExternalResult | str | Path,
         raise CaseError(f"samples = {samples!r} is not allowed; allowed: {', '.join(SAMPLES)}")
     case = load_case(case)
     res = result if isinstance(result, ExternalResult) else read_result(result, settings)
-    hist = res.history(case.mu, case.E, case.nu)
+    hist, notes = res.checked_history(case.mu, case.E, case.nu)
     check_loads(case, res, hist)
     hist = clip_stage3(hist)
     eff = result_case(case, hist, samples, res.meta.code)
@@ -175,13 +175,15 @@ def verify(case: Case | str | Path, result: ExternalResult | str | Path,
                       timings={"analytic": t1 - t0, "compare": time.perf_counter() - t1,
                                "external": res.meta.seconds},
                       source=f"{res.meta.code} ({res.source})",
-                      unavailable=unavailable(eff, hist, m))
+                      unavailable=unavailable(eff, hist, m), notes=notes)
 
 
 def report_note(res: CaseResult) -> str:
     """One paragraph naming the verified result and the metrics it cannot give."""
     na = "; ".join(f"{k}: {v}" for k, v in res.unavailable.items())
-    return f"Verified result: {res.source}." + (f" Not available: {na}." if na else "")
+    notes = " ".join(f"Note: {n}." for n in res.notes)
+    return (f"Verified result: {res.source}." + (f" Not available: {na}." if na else "")
+            + (f" {notes}" if notes else ""))
 
 
 def write_verify_report(res: CaseResult, out_dir: str | Path) -> dict:

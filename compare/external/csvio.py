@@ -104,7 +104,9 @@ def node_columns(table: Table, conv: Conventions) -> dict:
         for name, cell in zip(table.names, cells, strict=True):
             cols[name].append(cell.strip())
     first = table.rows[0][0]
-    out = {"status": status_codes(cols.pop("status"), str(table.path), first)}
+    out = {}
+    if "status" in cols:
+        out["status"] = status_codes(cols.pop("status"), str(table.path), first)
     for name, vals in cols.items():
         out[name] = np.array([_float(v, f"{table.path}, line {first + i}", name,
                                      allow_inf=name == "gap") for i, v in enumerate(vals)])

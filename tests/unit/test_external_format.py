@@ -115,16 +115,30 @@ def _line(path, no, new):
     path.write_text("\n".join(lines) + "\n")
 
 
+def _columns(path, **change) -> None:
+    """Rewrite data columns of a step file: name -> function of the dict of column arrays."""
+    lines = path.read_text().splitlines()
+    n_head = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+    names = lines[n_head].split(",")
+    cols = {n: np.array([float(r.split(",")[i]) for r in lines[n_head + 1:]])
+            for i, n in enumerate(names)}
+    cols |= {k: f(cols) for k, f in change.items()}
+    rows = [",".join(str(int(v)) if k == "status" else repr(float(v)) for k, v in
+                     zip(cols, vals, strict=True)) for vals in zip(*cols.values(), strict=True)]
+    path.write_text("\n".join(lines[:n_head] + [",".join(cols)] + rows) + "\n")
+
+
 @pytest.mark.parametrize("mutate, words", [
     (lambda m, s: _edit(s, "x,p,q,status", "x,p,status"), ["s1.csv", "missing column 'q'"]),
     (lambda m, s: _line(s, 5, "0.1,nan,0.0,1"), ["s1.csv, line 5", "'p'", "finite"]),
     (lambda m, s: _line(s, 5, "-0.1999,1.0,0.0,1"), ["s1.csv", "x must increase strictly"]),
     (lambda m, s: _line(s, 5, "-0.1975,1.0,0.0,4"), ["s1.csv, line 5", "status '4'"]),
     (lambda m, s: _line(s, 5, "-0.1975,1.0"), ["s1.csv, line 5", "2 values, expected 4"]),
-    (lambda m, s: _edit(m, "1,100.0,", "1,140.0,"), ["steps.csv, line 3", "P = 140",
-                                                      "does not match the case"]),
-    (lambda m, s: _edit(m, "1,100.0,0.0", "1,100.0,25.0"), ["steps.csv, line 3", "stage-1 step",
-                                                                   "Q = 25"]),
+    (lambda m, s: (_edit(m, "1,100.0,", "1,140.0,"), _columns(s, p=lambda c: 1.4 * c["p"])),
+     ["steps.csv, line 3", "P = 140", "does not match the case"]),
+    (lambda m, s: (_edit(m, "1,100.0,0.0", "1,100.0,25.0"),
+                   _columns(s, q=lambda c: 0.25 * c["p"])),
+     ["steps.csv, line 3", "stage-1 step", "Q = 25"]),
     (lambda m, s: _edit(m, "1,50.0,", "4,50.0,"), ["steps.csv, line 2", "stage '4'"]),
     (lambda m, s: _edit(m, "s1.csv", "nope.csv"), ["steps.csv, line 3", "'nope.csv' not found"]),
     (lambda m, s: m.write_text("# colour = red\n" + m.read_text()),
