@@ -185,6 +185,10 @@ def sqrt_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> 
 #: and curvature.  Measured on Hertz sampled with +-2 % ripple, h = a/20..a/80, 20 edge phases:
 #: edge error <= 0.04 element with half the run (0.053 with 0.4, 0.057 with 8 nodes).
 BAND_FRACTION, BAND_MIN, BAND_MAX = 0.5, 5, 32
+#: Nodes at a run's end with f below this fraction of the run's largest f are left out of the
+#: band: Kratos flags stage-3 nodes "stick" beyond the stick edge where mu p - |q| = 0 to 1e-5.
+BAND_TRIM = 0.05
+
 BAND_NOISE_FLOOR = 0.05
 #: Outermost nodes the band fit may drop (a code's smeared end nodes): the fit skipping k nodes is
 #: used when it agrees with the one skipping k + 1 within BAND_AGREE elements plus their combined
@@ -194,11 +198,19 @@ BAND_SKIPS, BAND_AGREE = 3, 0.02
 #: (from its residuals) combined with the change when one more end node is skipped; measured
 #: coverage of the true error on Hertz with +-2 % ripple 100 %, with 1-2 % random noise >= 97 %.
 BAND_COVER = 2.0
-#: Nodal data whose f**2 is rougher than this (median |third difference| over the mean |first
-#: difference|, i.e. in elements, over the band after the EDGE_SKIP outer nodes) are noisy and
-#: get the band estimator; smooth data (our FE: < 1e-3; f**2 of a sqrt edge has third
-#: differences ~ (h/a)**2) keep :func:`sqrt_edge`.  A +-1 % ripple gives ~0.1.
-NOISY_ROUGHNESS = 0.02
+#: A band fit is kept when it agrees with the half band's within this many times their combined
+#: uncertainty (each already BAND_COVER sigma): 1 loses accuracy on random noise (1 %, h = a/20:
+#: 0.30 element), 2 keeps it (0.06).
+BAND_HALVE = 2.0
+#: Nodal data are noisy when f**2 over the run (less EDGE_SKIP nodes at each end) is rougher
+#: than NOISY_ROUGHNESS: median |third difference| (divided differences in x times 6 h**3: zero
+#: for a quadratic on any grid) over the mean |first difference|, i.e. in elements (f**2 of a
+#: sqrt edge: ~ (h/a)**2), and the sign of successive third differences flips at more than
+#: NOISY_SIGN_FLIPS of them.  Measured: +-2 % ripple roughness > 1, flips 1.0 (period 3: 0.66);
+#: 1-2 % random noise flips 0.66-0.94; our own FE (applied_moment, double wedges, full slip
+#: first, at default levels) roughness up to 3.6 next to wedge apexes but flips <= 0.33 there:
+#: the third differences of a kink or a log singularity keep their sign.
+NOISY_ROUGHNESS, NOISY_SIGN_FLIPS = 0.02, 0.5
 
 
 def _inward(run: tuple[int, int], step: int) -> np.ndarray:
@@ -207,20 +219,44 @@ def _inward(run: tuple[int, int], step: int) -> np.ndarray:
     return np.arange(i1, i0 - 1, -1) if step > 0 else np.arange(i0, i1 + 1)
 
 
-def _band(run: tuple[int, int], step: int) -> np.ndarray:
+def _band(run: tuple[int, int], step: int, f: np.ndarray | None = None) -> np.ndarray:
+    """The band's nodes from the run's end inwards; with ``f``, leading nodes where f <=
+    BAND_TRIM * max f (flagged in the run, but at f = 0 within the noise: e.g. stick flags on
+    nodes with |q| = mu p) are left out first."""
     inward = _inward(run, step)
     n = min(max(int(BAND_FRACTION * inward.size), BAND_MIN), BAND_MAX, inward.size)
-    return inward[:n]
+    if f is None or not inward.size:
+        return inward[:n]
+    big = f[inward] > BAND_TRIM * float(np.max(f[inward]))
+    first = int(np.argmax(big)) if big.any() else 0
+    if inward.size - first >= BAND_MIN:
+        inward = inward[first:]
+    return inward[:min(n, inward.size)]
 
 
-def roughness(f: np.ndarray, run: tuple[int, int], step: int) -> float:
-    """Noise of the nodal f**2 next to a run's end, in elements (see NOISY_ROUGHNESS); 0 when
-    the band is too short to tell (< 4 third differences)."""
-    y = f[_band(run, step)[EDGE_SKIP:]] ** 2
+def roughness(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int
+              ) -> tuple[float, float]:
+    """(roughness in elements, fraction of sign flips) of the nodal f**2 of a run (see
+    NOISY_ROUGHNESS); (0, 0) when the run is too short to tell (< 4 third differences)."""
+    nodes = _inward(run, step)[EDGE_SKIP:-EDGE_SKIP or None]
+    xs, y = x[nodes], f[nodes] ** 2
     if y.size < 7:
-        return 0.0
-    d1 = float(np.mean(np.abs(np.diff(y))))
-    return float(np.median(np.abs(np.diff(y, 3)))) / d1 if d1 > 0 else 0.0
+        return 0.0, 0.0
+    d = y.copy()
+    for k in range(1, 4):
+        d = (d[1:] - d[:-1]) / (xs[k:] - xs[:-k])
+    span = np.abs(xs[3:] - xs[:-3]) / 3.0
+    third = 6.0 * d * span**3
+    first = np.abs(np.diff(y))
+    flips = float(np.mean(np.sign(third[1:]) != np.sign(third[:-1])))
+    mean1 = float(np.mean(first))
+    return (float(np.median(np.abs(third))) / mean1 if mean1 > 0 else 0.0), flips
+
+
+def is_noisy(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> bool:
+    """Whether f on the run carries node-to-node noise (NOISY_ROUGHNESS)."""
+    rough, flips = roughness(x, f, run, step)
+    return rough > NOISY_ROUGHNESS and flips > NOISY_SIGN_FLIPS
 
 
 def _wls_root(t: np.ndarray, y: np.ndarray, sig: np.ndarray) -> tuple[float, float] | None:
@@ -250,9 +286,27 @@ def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
     """Zero of f beyond the end of the run in direction ``step`` from the weighted band fit of
     f**2 (see BAND_FRACTION .. BAND_COVER), and its uncertainty (both lengths; NaN if no fit).
 
-    ``scale``: the magnitude that carries the nodal noise (default f itself: relative noise of
-    the pressure; mu p for a stick edge, where mu p - |q| -> 0 but its noise does not)."""
-    nodes = _band(run, step)
+    The band is halved (down to BAND_MIN nodes) while its fit disagrees with the half band's
+    beyond their combined uncertainty: f**2 is smooth only up to the nearest kink (e.g. a former
+    stick edge inside a stage-3 stick zone).  ``scale``: the magnitude that carries the nodal
+    noise (default f itself: relative noise of the pressure; mu p for a stick edge, where
+    mu p - |q| -> 0 but its noise does not)."""
+    nodes = _band(run, step, np.maximum(f, 0.0))
+    fits = []
+    while True:
+        fits.append(_band_fit(x, f, nodes, step, scale))
+        if nodes.size // 2 < BAND_MIN:
+            break
+        nodes = nodes[:nodes.size // 2]
+    for a, b in zip(fits, fits[1:], strict=False):
+        if math.isfinite(a[0]) and math.isfinite(b[0]) and abs(a[0] - b[0]) <= math.hypot(
+                a[1], b[1]) * BAND_HALVE:
+            return a
+    return fits[-1]
+
+
+def _band_fit(x: np.ndarray, f: np.ndarray, nodes: np.ndarray, step: int,
+              scale: np.ndarray | None) -> tuple[float, float]:
     end = nodes[0]
     if nodes.size < 2 or not 0 <= end + step < x.size:
         return math.nan, math.nan
@@ -276,18 +330,35 @@ def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
 
 
 def edge_estimate(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
-                  scale: np.ndarray | None = None) -> tuple[float, float]:
+                  scale: np.ndarray | None = None, band: bool = True) -> tuple[float, float]:
     """One rule for every code's nodal data: (edge, uncertainty) of the zero of f beyond the
-    run's end.  Noisy data (:func:`roughness` > NOISY_ROUGHNESS) take the band fit and its own
-    uncertainty; smooth data take :func:`sqrt_edge`, with the uncertainty the larger of the band
-    fit's and the distance between the two estimates."""
+    run's end.  Noisy data (:func:`is_noisy`) take the band fit and its own uncertainty (with
+    ``band``; stick edges do not, see :func:`stick_edge_estimate`); smooth data take
+    :func:`sqrt_edge`, with the uncertainty the larger of the band fit's and the distance
+    between the two estimates."""
     e_band, u_band = band_edge(x, f, run, step, scale)
-    if math.isfinite(e_band) and roughness(f, run, step) > NOISY_ROUGHNESS:
+    if band and math.isfinite(e_band) and is_noisy(x, f, run, step):
         return e_band, u_band
     e = sqrt_edge(x, f, run, step)
+    if not band:
+        return e, _two_node_spread(x, f, run, step, e)
     if not math.isfinite(e_band):
         return e, _half_element(x, run, step)
     return e, max(u_band, abs(e - e_band))
+
+
+def _two_node_spread(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
+                     e: float) -> float:
+    """Distance of ``e`` from the root of the line through f**2 at the run's two outermost nodes
+    (within :func:`edge_bounds`): an independent estimate; half an element without one."""
+    inward = _inward(run, step)
+    if inward.size < 2:
+        return _half_element(x, run, step)
+    root = power_root(x[inward[:2]], f[inward[:2]] ** 2, x[inward[0]], -step)
+    if root is None:
+        return _half_element(x, run, step)
+    lo, hi = edge_bounds(x, int(inward[0]), step)
+    return abs(float(np.clip(root, lo, hi)) - e)
 
 
 def _half_element(x: np.ndarray, run: tuple[int, int], step: int) -> float:
@@ -368,10 +439,15 @@ def stick_edge_estimate(x, p, q, mu: float, run: tuple[int, int], step: int
     """(edge, uncertainty) of a stick run next to a slip node: the zero of ``mu p - s q``,
     s = sign of q in that slip zone (q = s mu p there), which is sqrt-shaped across the stick
     edge (Jaeger-Ciavarella: mu p_S of the reduced problem), also where q changes sign in the
-    stick zone; located by :func:`edge_estimate` with the noise carried by mu p."""
+    stick zone; located by :func:`sqrt_edge` also on noisy data, with the uncertainty of
+    :func:`edge_estimate` (noise carried by mu p): the band fit is not used for stick edges,
+    because mu p - s q of a stage-3 stick zone peaks at a kink (the frozen stage-2 stick edge)
+    a few nodes in, which the band crosses (on Kratos' cattaneo result it put stage-3 stick
+    edges up to 5 elements off, the kink-aware sqrt_edge 0.5)."""
     end = run[1] if step > 0 else run[0]
     s = np.sign(q[end + step]) or np.sign(q[end]) or 1.0
-    return edge_estimate(x, np.maximum(mu * p - s * q, 0.0), run, step, scale=mu * p)
+    return edge_estimate(x, np.maximum(mu * p - s * q, 0.0), run, step, scale=mu * p,
+                         band=False)
 
 
 def contact_and_stick(x, p, q, status, candidate, mu, gap=None) -> tuple[tuple, tuple]:
