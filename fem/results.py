@@ -202,6 +202,11 @@ BAND_COVER = 2.0
 #: uncertainty (each already BAND_COVER sigma): 1 loses accuracy on random noise (1 %, h = a/20:
 #: 0.30 element), 2 keeps it (0.06).
 BAND_HALVE = 2.0
+#: A stick edge takes the band fit on noisy data only within this many elements of sqrt_edge
+#: (further, the band crossed a kink): on Cattaneo with +-2 % ripple the band is within 0.09
+#: element of the truth (h <= c/8) and sqrt_edge 0.4-0.7 element off; on Kratos' stage 3 the
+#: band was 2-5 elements off next to the frozen stage-2 stick edge.
+BAND_TRUST = 1.0
 #: Nodal data are noisy when f**2 over the run (less EDGE_SKIP nodes at each end) is rougher
 #: than NOISY_ROUGHNESS: median |third difference| (divided differences in x times 6 h**3: zero
 #: for a quadratic on any grid) over the mean |first difference|, i.e. in elements (f**2 of a
@@ -330,21 +335,30 @@ def _band_fit(x: np.ndarray, f: np.ndarray, nodes: np.ndarray, step: int,
 
 
 def edge_estimate(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
-                  scale: np.ndarray | None = None, band: bool = True) -> tuple[float, float]:
+                  scale: np.ndarray | None = None, trust: float = math.inf
+                  ) -> tuple[float, float]:
     """One rule for every code's nodal data: (edge, uncertainty) of the zero of f beyond the
-    run's end.  Noisy data (:func:`is_noisy`) take the band fit and its own uncertainty (with
-    ``band``; stick edges do not, see :func:`stick_edge_estimate`); smooth data take
-    :func:`sqrt_edge`, with the uncertainty the larger of the band fit's and the distance
-    between the two estimates."""
+    run's end.  Noisy data (:func:`is_noisy`) take the band fit and its own uncertainty when it
+    lies within ``trust`` elements of :func:`sqrt_edge` (stick edges: BAND_TRUST); else, and on
+    smooth data, :func:`sqrt_edge` is the edge, with the uncertainty the larger of the band
+    fit's own and the two estimates' distance (smooth data), or of ``trust`` elements and the
+    distance to the line through the two outermost nodes (noisy data the band does not fit)."""
     e_band, u_band = band_edge(x, f, run, step, scale)
-    if band and math.isfinite(e_band) and is_noisy(x, f, run, step):
-        return e_band, u_band
     e = sqrt_edge(x, f, run, step)
-    if not band:
-        return e, _two_node_spread(x, f, run, step, e)
+    h = 2.0 * _half_element(x, run, step)
     if not math.isfinite(e_band):
         return e, _half_element(x, run, step)
+    if is_noisy(x, f, run, step):
+        if abs(e - e_band) <= trust * h:
+            return e_band, u_band
+        return e, max(trust * h, _two_node_spread(x, f, run, step, e))
     return e, max(u_band, abs(e - e_band))
+
+
+def _half_element(x: np.ndarray, run: tuple[int, int], step: int) -> float:
+    end = _inward(run, step)[0]
+    nb = end + step if 0 <= end + step < x.size else end - step
+    return 0.5 * abs(float(x[nb] - x[end]))
 
 
 def _two_node_spread(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
@@ -359,12 +373,6 @@ def _two_node_spread(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: i
         return _half_element(x, run, step)
     lo, hi = edge_bounds(x, int(inward[0]), step)
     return abs(float(np.clip(root, lo, hi)) - e)
-
-
-def _half_element(x: np.ndarray, run: tuple[int, int], step: int) -> float:
-    end = _inward(run, step)[0]
-    nb = end + step if 0 <= end + step < x.size else end - step
-    return 0.5 * abs(float(x[nb] - x[end]))
 
 
 def gap_edge(x: np.ndarray, gap: np.ndarray, status: np.ndarray, end: int, step: int
@@ -439,15 +447,14 @@ def stick_edge_estimate(x, p, q, mu: float, run: tuple[int, int], step: int
     """(edge, uncertainty) of a stick run next to a slip node: the zero of ``mu p - s q``,
     s = sign of q in that slip zone (q = s mu p there), which is sqrt-shaped across the stick
     edge (Jaeger-Ciavarella: mu p_S of the reduced problem), also where q changes sign in the
-    stick zone; located by :func:`sqrt_edge` also on noisy data, with the uncertainty of
-    :func:`edge_estimate` (noise carried by mu p): the band fit is not used for stick edges,
-    because mu p - s q of a stage-3 stick zone peaks at a kink (the frozen stage-2 stick edge)
-    a few nodes in, which the band crosses (on Kratos' cattaneo result it put stage-3 stick
-    edges up to 5 elements off, the kink-aware sqrt_edge 0.5)."""
+    stick zone; located by :func:`edge_estimate` (noise carried by mu p) trusting the band fit
+    only within BAND_TRUST elements of :func:`sqrt_edge`: mu p - s q of a stage-3 stick zone
+    peaks at a kink (the frozen stage-2 stick edge) a few nodes in, which the band crosses (on
+    Kratos' cattaneo result it put stage-3 stick edges up to 5 elements off)."""
     end = run[1] if step > 0 else run[0]
     s = np.sign(q[end + step]) or np.sign(q[end]) or 1.0
     return edge_estimate(x, np.maximum(mu * p - s * q, 0.0), run, step, scale=mu * p,
-                         band=False)
+                         trust=BAND_TRUST)
 
 
 def contact_and_stick(x, p, q, status, candidate, mu, gap=None) -> tuple[tuple, tuple]:
