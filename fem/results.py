@@ -453,8 +453,28 @@ def stick_edge_estimate(x, p, q, mu: float, run: tuple[int, int], step: int
     Kratos' cattaneo result it put stage-3 stick edges up to 5 elements off)."""
     end = run[1] if step > 0 else run[0]
     s = np.sign(q[end + step]) or np.sign(q[end]) or 1.0
-    return edge_estimate(x, np.maximum(mu * p - s * q, 0.0), run, step, scale=mu * p,
+    f = np.maximum(mu * p - s * q, 0.0)
+    return edge_estimate(x, f, _stick_run(f, p, run, step), step, scale=mu * p,
                          trust=BAND_TRUST)
+
+
+#: A node flagged slip next to a stick run still belongs to it when mu p - s q there exceeds
+#: this fraction of the run's largest: a slip node has |q| = mu p (Kratos: to 2e-5 of mu p, our
+#: FE: to round-off), so only a wrong flag does (then the edge lies beyond it).
+STICK_FLAG_SLACK = 0.05
+
+
+def _stick_run(f: np.ndarray, p: np.ndarray, run: tuple[int, int], step: int
+               ) -> tuple[int, int]:
+    """The stick run extended in direction ``step`` over contact nodes flagged slip whose f is
+    clearly positive (STICK_FLAG_SLACK)."""
+    i0, i1 = run
+    top = float(np.max(f[i0:i1 + 1]))
+    j = i1 if step > 0 else i0
+    while 0 <= j + 2 * step < f.size and p[j + 2 * step] > 0 and \
+            f[j + step] > STICK_FLAG_SLACK * top:
+        j += step
+    return (i0, j) if step > 0 else (j, i1)
 
 
 def contact_and_stick(x, p, q, status, candidate, mu, gap=None) -> tuple[tuple, tuple]:
@@ -464,31 +484,21 @@ def contact_and_stick(x, p, q, status, candidate, mu, gap=None) -> tuple[tuple, 
     return zones_with_uncertainty(x, p, q, status, candidate, mu, gap)[:2]
 
 
-#: A stick run of at most this many nodes is a stray flag when the contact zone holds a longer
-#: stick run (a code's noisy stick/slip flag, or a status derived from |q| vs mu p at a node
-#: where both are nearly zero): it does not extend the stick zone.
+#: A stick run of at most this many nodes is a stray flag (a code's noisy stick/slip flag, or a
+#: status derived from |q| vs mu p where both are nearly zero) when the contact zone holds a
+#: longer stick run, or when it sits at the zone's end node (a stick zone lies inside its contact
+#: zone; at the edge p -> 0 and |q| <= mu p holds within the noise whatever the state): it does
+#: not make or extend a stick zone.
 STRAY_STICK_NODES = 1
-#: A lone stick run of at most STRAY_STICK_NODES at a contact zone's end is a stray flag (full
-#: slip) when its pressure is below this fraction of the zone's peak: at a near-zero-pressure
-#: edge |q| <= mu p holds to within the nodal noise whatever the state.
-EDGE_PRESSURE_FRACTION = 0.1
 
 
-def stick_runs_of_zone(inside: list, p: np.ndarray, run: tuple[int, int]) -> list:
-    """The stick runs (index ranges) of one contact run that make its stick zone.
-
-    Stick zones are spans of stick nodes; a stray stick flag must not move them: a run of at
-    most STRAY_STICK_NODES nodes is dropped when the zone has a longer stick run, and a lone
-    such run at the zone's end node whose pressure is below EDGE_PRESSURE_FRACTION of the
-    zone's peak is dropped (full slip)."""
-    if not inside:
-        return inside
+def stick_runs_of_zone(inside: list, run: tuple[int, int]) -> list:
+    """The stick runs (index ranges) of one contact run ``run`` that make its stick zone: those
+    left when the stray flags (STRAY_STICK_NODES) are dropped."""
     long_runs = [r for r in inside if r[1] - r[0] + 1 > STRAY_STICK_NODES]
     if long_runs:
         return long_runs
-    peak = float(np.max(p[run[0]:run[1] + 1]))
-    return [r for r in inside if not (r[0] in run or r[1] in run) or
-            float(np.max(p[r[0]:r[1] + 1])) >= EDGE_PRESSURE_FRACTION * peak]
+    return [r for r in inside if r[0] not in run and r[1] not in run]
 
 
 def zones_with_uncertainty(x, p, q, status, candidate, mu, gap=None
@@ -499,7 +509,7 @@ def zones_with_uncertainty(x, p, q, status, candidate, mu, gap=None
     sticks = runs(status == STICK)
     aligned, unc = [], []
     for ((a, ua), (b, ub)), (i0, i1) in zip(est, runs(status > OPEN), strict=True):
-        inside = stick_runs_of_zone([r for r in sticks if i0 <= r[0] and r[1] <= i1], p,
+        inside = stick_runs_of_zone([r for r in sticks if i0 <= r[0] and r[1] <= i1],
                                     (i0, i1))
         if not inside:
             aligned.append(None)
