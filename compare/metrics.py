@@ -62,12 +62,17 @@ def in_elements(error: float, x: np.ndarray, at: float) -> float:
 DOMINANT_SHARE = 0.5
 
 
+#: Below this relative L2 error there is no error for one node to dominate (round-off).
+SHARE_FLOOR = 1e-9
+
+
 def top_share(fe: np.ndarray, an: np.ndarray, w: np.ndarray, x: np.ndarray
               ) -> tuple[float, float]:
-    """(largest share of one node in sum w (fe - an)**2, that node's x); (nan, nan) if zero."""
+    """(largest share of one node in sum w (fe - an)**2, that node's x); (nan, nan) when the
+    relative L2 error is below SHARE_FLOOR."""
     sq = w * (fe - an) ** 2
     total = float(np.sum(sq))
-    if not total > 0:
+    if not total > (SHARE_FLOOR * l2(an, w)) ** 2:
         return float("nan"), float("nan")
     i = int(np.argmax(sq))
     return float(sq[i]) / total, float(x[i])

@@ -249,3 +249,44 @@ def test_deformed_x_with_ux_gives_the_same_metrics(tmp_path):
     (folder / "s1.csv").write_text((folder / "s1.csv").read_text().replace(",ux", ",uy"))
     with pytest.raises(CaseError, match="s1.csv: missing column 'ux'"):
         verify(CASE, folder)
+
+
+def test_comment_lines_with_equals_are_comments(tmp_path):
+    """Only '# key = value' with a one-word key is a header item; '# solver tol = 1e-8' and
+    '# run at T=20 C' are comments (a one-word unknown key stays an error: a misspelt key)."""
+    f = write_result(tmp_path / "c", head="# solver tolerance = 1e-8\n# run at T=20 C\n"
+                     "# code = mine\n")
+    res = verify(CASE, f)
+    assert res.passed and res.source.startswith("mine")
+
+
+def test_cli_json_error_object_and_nothing_written(tmp_path, capsys):
+    """An input error with --json: the message on stderr and a JSON error object on stdout;
+    with -o nothing is written."""
+    import json
+
+    from compare.cli import main
+
+    f = write_result(tmp_path / "sign", head="# pressure_sign = -1\n")  # p is compressive > 0
+    out = tmp_path / "report"
+    assert main(["verify", "hertz", str(f), "--json", "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    err = json.loads(captured.out)["error"]
+    assert err["kind"] == "input" and err["exit_code"] == 2
+    assert "sum p w = -" in err["message"] and "sign of p" in captured.err
+    assert not out.exists()
+
+
+def test_external_report_names_the_code_not_a_sparse_backend(tmp_path):
+    from compare.verify import write_verify_report
+
+    f = write_result(tmp_path / "r", head="# code = MyCode 2.1\n")
+    res = verify(CASE, f)
+    write_verify_report(res, tmp_path / "rep")
+    page = (tmp_path / "rep" / "index.html").read_text()
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert "CHOLMOD" not in page and "CHOLMOD" not in md
+    assert "Q4" not in md and "0 DOFs" not in md and "level" not in md.split("Verified")[0]
+    assert "Code **MyCode 2.1**, DOFs not given, element order not given" in md
+    assert "code <b>MyCode 2.1</b> &middot; DOFs not given" in page
+    assert "element" in md  # the edge error in elements is on the page
