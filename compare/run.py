@@ -1,8 +1,11 @@
 """``run_case``: solve a case analytically and by FE, and measure the distance between them.
 
-Metrics (all dimensionless; ``CaseResult.metrics`` is a flat dict of floats):
+Metrics (dimensionless but ``pressure_l2_top_x``; ``CaseResult.metrics`` is a flat dict of
+floats):
 
 - ``edge_error_max``: max over zones and edges of |a_fe - a_an| / (b_an - a_an) at P0;
+  ``edge_error_max_elements``: the same errors divided by the local node spacing instead (per
+  zone also ``edge_uncertainty_elements``: the edge estimator's own uncertainty);
 - ``pressure_l2_error`` / ``pressure_max_error``: relative L2 / max of p_fe - p_an at P0 over
   all nodes of the refined window, away from singular points (metrics.SINGULAR_EXCLUSION);
 - ``load_share_error_max``: max over zones of |F_fe - F_an| / P;
@@ -10,7 +13,10 @@ Metrics (all dimensionless; ``CaseResult.metrics`` is a flat dict of floats):
   ``rotation_error`` |theta_fe - theta_an| / |theta_an| (applied moment);
 - ``stick_edge_error_max`` / ``shear_l2_error``: max over the sampled Q of stages 2 and 3 of
   the stick-edge error relative to the contact-zone width and the floored relative L2 shear
-  error (metrics.SHEAR_FLOOR);
+  error (metrics.SHEAR_FLOOR); ``stick_edge_error_max_elements``: in local node spacings;
+- ``pressure_l2_top_share`` / ``shear_l2_top_share``: the largest share of one node in the
+  squared L2 error (of the worst shear sample; > metrics.DOMINANT_SHARE: one node dominates),
+  ``pressure_l2_top_x`` that node's x (a length, the one non-dimensionless entry);
 - ``uncoupling_error``: max over stages 2-3 of ||p_fe(Q) - p_fe(0)|| / ||p_fe(0)||;
 - ``jc_error``: FE shear against mu [p_fe(P0) - p_fe(P*)] built from FE normal solutions;
 - ``zone_count_mismatch`` and ``full_slip_mismatches``: counts that must be 0;
