@@ -2,7 +2,8 @@
 
 Exit codes: 0 the FE and analytic solutions agree (or nothing to compare), 1 a tolerance
 failed, 2 bad input (one message on stderr, nothing written), 3 a solver did not converge.
-``--json`` prints machine-readable output on stdout; progress goes to stderr.
+``--json`` prints machine-readable output on stdout (an error also as ``{"error": {"kind",
+"message", "exit_code"}}``); progress goes to stderr.
 """
 
 from __future__ import annotations
@@ -193,7 +194,7 @@ def _settings(items: Sequence[str] | None) -> dict:
 def cmd_verify(args) -> int:
     from compare.fileio import plan_output
     from compare.testing import format_checks
-    from compare.verify import verify, write_verify_report
+    from compare.verify import measurement_lines, verify, write_verify_report
 
     if args.out:  # refused before anything is computed
         plan_output(args.out, "verify", args.force)
@@ -208,6 +209,8 @@ def cmd_verify(args) -> int:
                         f"{'agrees' if res.passed else 'FAILS'}"))
     for metric, why in res.unavailable.items():
         print(f"  not available: {metric}: {why}")
+    for line in measurement_lines(res) + [f"note: {n}" for n in res.notes]:
+        print(f"  {line}")
     if report:
         print(f"report written: {report['index']}")
     return EXIT_OK if res.passed else EXIT_FAIL
@@ -393,11 +396,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return args.func(args)
     except (CaseError, analytic.errors.InputError, fem.errors.InputError) as exc:
-        print(f"multicontact: error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
+        return _error(args, "input", f"error: {exc}", EXIT_INPUT)
     except (analytic.errors.ConvergenceError, fem.errors.ConvergenceError) as exc:
-        print(f"multicontact: solver did not converge: {exc}", file=sys.stderr)
-        return EXIT_SOLVER
+        return _error(args, "solver", f"solver did not converge: {exc}", EXIT_SOLVER)
+
+
+def _error(args, kind: str, message: str, code: int) -> int:
+    """The message on stderr and, with --json, a JSON error object on stdout."""
+    print(f"multicontact: {message}", file=sys.stderr)
+    if getattr(args, "json", False):
+        print(json.dumps({"error": {"kind": kind, "message": message, "exit_code": code}},
+                         indent=1))
+    return code
 
 
 if __name__ == "__main__":

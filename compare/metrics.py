@@ -42,6 +42,43 @@ def edge_errors(an: Sequence[Zone], fe: Sequence[Zone]) -> list[tuple[float, flo
     return [(abs(nearest(lefts, a) - a), abs(nearest(rights, b) - b)) for a, b in an]
 
 
+def local_spacing(x: np.ndarray, at: float) -> float:
+    """Node spacing of the element holding ``at`` (the nearest end element outside the nodes):
+    the length that turns an edge error into elements."""
+    if x.size < 2 or not np.isfinite(at):
+        return float("nan")
+    j = int(np.clip(np.searchsorted(x, at) - 1, 0, x.size - 2))
+    return float(x[j + 1] - x[j])
+
+
+def in_elements(error: float, x: np.ndarray, at: float) -> float:
+    """An edge error (length) divided by the local node spacing at ``at``."""
+    h = local_spacing(x, at)
+    return error / h if h > 0 else float("nan")
+
+
+#: A nodal L2 error is reported as dominated by one node when that node carries more than this
+#: share of the squared error (sum w e**2): the verdict then hinges on where an edge falls
+#: between nodes, not on the field.
+DOMINANT_SHARE = 0.5
+
+
+#: Below this relative L2 error there is no error for one node to dominate (round-off).
+SHARE_FLOOR = 1e-9
+
+
+def top_share(fe: np.ndarray, an: np.ndarray, w: np.ndarray, x: np.ndarray
+              ) -> tuple[float, float]:
+    """(largest share of one node in sum w (fe - an)**2, that node's x); (nan, nan) when the
+    relative L2 error is below SHARE_FLOOR."""
+    sq = w * (fe - an) ** 2
+    total = float(np.sum(sq))
+    if not total > (SHARE_FLOOR * l2(an, w)) ** 2:
+        return float("nan"), float("nan")
+    i = int(np.argmax(sq))
+    return float(sq[i]) / total, float(x[i])
+
+
 def overlap(z1: Zone, z2: Zone) -> float:
     """Length of the intersection of two intervals (0 if disjoint)."""
     return max(0.0, min(z1[1], z2[1]) - max(z1[0], z2[0]))

@@ -1,8 +1,11 @@
 """``run_case``: solve a case analytically and by FE, and measure the distance between them.
 
-Metrics (all dimensionless; ``CaseResult.metrics`` is a flat dict of floats):
+Metrics (dimensionless but ``pressure_l2_top_x``; ``CaseResult.metrics`` is a flat dict of
+floats):
 
 - ``edge_error_max``: max over zones and edges of |a_fe - a_an| / (b_an - a_an) at P0;
+  ``edge_error_max_elements``: the same errors divided by the local node spacing instead (per
+  zone also ``edge_uncertainty_elements``: the edge estimator's own uncertainty);
 - ``pressure_l2_error`` / ``pressure_max_error``: relative L2 / max of p_fe - p_an at P0 over
   all nodes of the refined window, away from singular points (metrics.SINGULAR_EXCLUSION);
 - ``load_share_error_max``: max over zones of |F_fe - F_an| / P;
@@ -12,7 +15,11 @@ Metrics (all dimensionless; ``CaseResult.metrics`` is a flat dict of floats):
   the stick-edge error relative to the contact-zone width and of the L2 shear error in units of
   the Coulomb bound, ||q_fe - q_an|| / (mu ||p_an||) (|q| <= mu p: the largest ||q|| any sample
   can have; relative to ||q_an|| the error blew up where q is small, e.g. at the stage-3
-  reversal Q = 0, issue 25; benchmarks/shear_load_ratios.py);
+  reversal Q = 0, issue 25; benchmarks/shear_load_ratios.py); ``stick_edge_error_max_elements``:
+  in local node spacings;
+- ``pressure_l2_top_share`` / ``shear_l2_top_share``: the largest share of one node in the
+  squared L2 error (of the worst shear sample; > metrics.DOMINANT_SHARE: one node dominates),
+  ``pressure_l2_top_x`` that node's x (a length, the one non-dimensionless entry);
 - ``uncoupling_error``: max over stages 2-3 of ||p_fe(Q) - p_fe(0)|| / ||p_fe(0)||;
 - ``jc_error``: FE shear against mu [p_fe(P0) - p_fe(P*)] built from FE normal solutions;
 - ``zone_count_mismatch`` and ``full_slip_mismatches``: counts that must be 0;
@@ -75,7 +82,8 @@ class CaseResult:
     :class:`Check` per named tolerance); timings (seconds); vtk (path of the .pvd or None);
     source: what was verified ('multicontact fem' or the external code and its files, see
     ``compare.verify``); unavailable: metric -> why the result cannot give it (reported as
-    "not available", not as a pass of a measurement).
+    "not available", not as a pass of a measurement); notes: what was done to the input
+    before measuring (e.g. small negative pressures clipped, ``compare.verify``).
     """
 
     case: Case
@@ -89,6 +97,7 @@ class CaseResult:
     vtk: str | None = None
     source: str = "multicontact fem"
     unavailable: dict = field(default_factory=dict)
+    notes: tuple = ()
 
     @property
     def passed(self) -> bool:
@@ -105,6 +114,7 @@ class CaseResult:
                             "tolerance": c.tolerance, "status": c.status} for c in self.checks],
                 "zones": self.zones, "samples": self.samples, "timings": self.timings,
                 "vtk": self.vtk, "source": self.source, "unavailable": self.unavailable,
+                "notes": list(self.notes),
                 "fem": {"n_dofs": self.fem.n_dofs, "order": self.fem.order,
                         "h_min": self.fem.h_min, "backend": self.fem.backend}}
 
@@ -124,6 +134,7 @@ def normal_metrics(case: Case, an: AnalyticResult, end: fem.FemStep) -> tuple[di
     keep = mt.regular_mask(it.x, ns.zones, mt.singular_points(ns.zones, ns.singular,
                                                               kinks(case)))
     p_l2, p_max = mt.traction_errors(it.x, it.w, it.p, ns.pressure, keep)
+    share, share_x = mt.top_share(it.p[keep], ns.pressure(it.x[keep]), it.w[keep], it.x[keep])
     match = mt.match_zones(ns.zones, fe_zones)
     zones = []
     for k, ((a, b), (ea, eb)) in enumerate(zip(ns.zones, errs, strict=True)):
@@ -131,18 +142,31 @@ def normal_metrics(case: Case, an: AnalyticResult, end: fem.FemStep) -> tuple[di
         F_fe = mt.zone_load(it.x, it.w, it.p, fz) if fz else 0.0
         zk = keep & mt.zone_nodes(it.x, (a, b))
         zl2 = mt.traction_errors(it.x, it.w, it.p, ns.pressure, zk)[0] if zk.any() else NAN
+        ua, ub = _edge_uncertainty(end, match[k])
+        ha, hb = mt.local_spacing(it.x, a), mt.local_spacing(it.x, b)
         zones.append({"zone": k, "analytic": [a, b], "fem": list(fz) if fz else None,
                       "singular": list(ns.singular[k]), "edge_error": [ea, eb],
                       "edge_error_rel": [ea / (b - a), eb / (b - a)],
+                      "h_local": [ha, hb], "edge_error_elements": [ea / ha, eb / hb],
+                      "edge_uncertainty_elements": [ua / ha, ub / hb],
                       "load_share_analytic": ns.zone_loads[k] / case.P,
                       "load_share_fem": F_fe / case.P, "pressure_l2_error": zl2})
     m = {"edge_error_max": max(max(z["edge_error_rel"]) for z in zones),
+         "edge_error_max_elements": max(max(z["edge_error_elements"]) for z in zones),
          "pressure_l2_error": p_l2, "pressure_max_error": p_max,
+         "pressure_l2_top_share": share, "pressure_l2_top_x": share_x,
          "load_share_error_max": max(abs(z["load_share_fem"] - z["load_share_analytic"])
                                      for z in zones),
          "zone_count_mismatch": float(abs(len(fe_zones) - len(ns.zones)))}
     m.update(_moment_metrics(case, an, end))
     return m, zones
+
+
+def _edge_uncertainty(step: fem.FemStep, j: int | None) -> tuple[float, float]:
+    """The FE zone ``j``'s edge uncertainties (NaN when not computed or no zone)."""
+    if j is None or j >= len(step.edge_uncertainty):
+        return NAN, NAN
+    return step.edge_uncertainty[j]
 
 
 def _moment_metrics(case: Case, an: AnalyticResult, end: fem.FemStep) -> dict:
@@ -163,10 +187,15 @@ def sample_metrics(case: Case, an: AnalyticResult, hist: fem.FemHistory, keep: n
     """Stick-edge and shear errors at every sampled Q."""
     rows = [_sample_row(case, an, hist, st, keep) for st in an.samples]
     if not rows:
-        return {"stick_edge_error_max": NAN, "shear_l2_error": NAN,
+        return {"stick_edge_error_max": NAN, "stick_edge_error_max_elements": NAN,
+                "shear_l2_error": NAN, "shear_l2_top_share": NAN,
                 "full_slip_mismatches": NAN}, []
+    worst = max(rows, key=lambda r: r["shear_l2_error"])
     return {"stick_edge_error_max": max(r["stick_edge_error_max"] for r in rows),
-            "shear_l2_error": max(r["shear_l2_error"] for r in rows),
+            "stick_edge_error_max_elements": max(r["stick_edge_error_max_elements"]
+                                                 for r in rows),
+            "shear_l2_error": worst["shear_l2_error"],
+            "shear_l2_top_share": worst["shear_l2_top_share"],
             "full_slip_mismatches": float(sum(r["full_slip_mismatch"] for r in rows))}, rows
 
 
@@ -182,13 +211,45 @@ def _sample_row(case: Case, an: AnalyticResult, hist: fem.FemHistory, st: StickS
     x, w = it.x[keep], it.w[keep]
     q_l2 = mt.bounded_l2(it.q[keep], np.asarray(st.shear(x), float), w,
                          case.mu * mt.l2(ns.pressure(x), w))
+    share, share_x = mt.top_share(it.q[keep], np.asarray(st.shear(x), float), w, x)
     mismatch = sum((a is None) != (f is None) for a, f in zip(st.stick_zones, fe_sticks,
                                                              strict=True))
+    elems = [_stick_elements(it.x, s_an, s_fe, e * (b - a))
+             for (a, b), s_an, s_fe, e in zip(ns.zones, st.stick_zones, fe_sticks, errs,
+                                              strict=True)]
     return {"stage": st.stage, "Q": st.Q, "Q_over_Q0": st.Q / case.Q0,
             "stick_analytic": [list(s) if s else None for s in st.stick_zones],
             "stick_fem": [list(s) if s else None for s in fe_sticks],
             "stick_edge_error": errs, "stick_edge_error_max": max(errs),
-            "shear_l2_error": q_l2, "full_slip_mismatch": int(mismatch)}
+            "stick_edge_error_elements": elems,
+            "stick_edge_error_max_elements": max(elems),
+            "stick_uncertainty_elements": _stick_uncertainty(step, match, it.x),
+            "shear_l2_error": q_l2, "shear_l2_top_share": share, "shear_l2_top_x": share_x,
+            "full_slip_mismatch": int(mismatch)}
+
+
+def _stick_elements(x: np.ndarray, s_an, s_fe, error: float) -> float:
+    """A stick-edge error (length) in elements: at the FE stick zone's worse edge (or the
+    analytic zone's centre when one side is in full slip)."""
+    if s_an is None and s_fe is None:
+        return 0.0
+    if s_an is None or s_fe is None:
+        c, d = s_an if s_fe is None else s_fe
+        return mt.in_elements(error, x, 0.5 * (c + d))
+    worse = 0 if abs(s_fe[0] - s_an[0]) >= abs(s_fe[1] - s_an[1]) else 1
+    return mt.in_elements(error, x, s_fe[worse])
+
+
+def _stick_uncertainty(step: fem.FemStep, match: list, x: np.ndarray) -> list:
+    """Per analytic zone: the matched FE stick zone's edge uncertainties in elements."""
+    out = []
+    for j in match:
+        u = step.stick_uncertainty[j] if j is not None and j < len(step.stick_uncertainty) \
+            else None
+        s = step.stick_zones[j] if j is not None else None
+        out.append(None if u is None or s is None else
+                   [mt.in_elements(u[0], x, s[0]), mt.in_elements(u[1], x, s[1])])
+    return out
 
 
 def uncoupling_error(hist: fem.FemHistory) -> float:

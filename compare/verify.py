@@ -23,6 +23,7 @@ from compare.analytic_side import solve_case
 from compare.cases import Case, load_case
 from compare.errors import CaseError
 from compare.external import ExternalResult, read_result
+from compare.metrics import DOMINANT_SHARE
 from compare.run import CaseResult, checks_for, evaluate
 from compare.stress import STRESS_METRICS
 
@@ -162,7 +163,7 @@ def verify(case: Case | str | Path, result: ExternalResult | str | Path,
         raise CaseError(f"samples = {samples!r} is not allowed; allowed: {', '.join(SAMPLES)}")
     case = load_case(case)
     res = result if isinstance(result, ExternalResult) else read_result(result, settings)
-    hist = res.history(case.mu, case.E, case.nu)
+    hist, notes = res.checked_history(case.mu, case.E, case.nu)
     check_loads(case, res, hist)
     hist = clip_stage3(hist)
     eff = result_case(case, hist, samples, res.meta.code)
@@ -175,13 +176,48 @@ def verify(case: Case | str | Path, result: ExternalResult | str | Path,
                       timings={"analytic": t1 - t0, "compare": time.perf_counter() - t1,
                                "external": res.meta.seconds},
                       source=f"{res.meta.code} ({res.source})",
-                      unavailable=unavailable(eff, hist, m))
+                      unavailable=unavailable(eff, hist, m), notes=notes)
+
+
+def measurement_lines(res: CaseResult) -> list[str]:
+    """The edge errors in elements (with the estimator's own uncertainty) and the L2 errors
+    that one node dominates (:data:`compare.metrics.DOMINANT_SHARE`)."""
+    m = res.metrics
+    out = []
+    unc = [u for z in res.zones for u in z.get("edge_uncertainty_elements", ())
+           if math.isfinite(u)]
+    if math.isfinite(m.get("edge_error_max_elements", math.nan)):
+        out.append(f"edge error: {m['edge_error_max']:.3g} of the zone width = "
+                   f"{m['edge_error_max_elements']:.3g} element"
+                   + (f" (edge estimator uncertainty up to {max(unc):.2g} element)"
+                      if unc else ""))
+    sunc = [u for r in res.samples for pair in r.get("stick_uncertainty_elements", ())
+            if pair for u in pair if math.isfinite(u)]
+    if math.isfinite(m.get("stick_edge_error_max_elements", math.nan)):
+        out.append(f"stick-edge error: {m['stick_edge_error_max']:.3g} of the zone width = "
+                   f"{m['stick_edge_error_max_elements']:.3g} element"
+                   + (f" (estimator uncertainty up to {max(sunc):.2g} element)" if sunc
+                      else ""))
+    for metric, key, where in (("pressure_l2_error", "pressure_l2_top_share",
+                                "pressure_l2_top_x"),
+                               ("shear_l2_error", "shear_l2_top_share", None)):
+        share = m.get(key, math.nan)
+        if math.isfinite(share) and share > DOMINANT_SHARE:
+            at = f" at x = {m[where]:.4g}" if where and math.isfinite(m.get(where, math.nan)) \
+                else ""
+            out.append(f"{metric}: one node{at} carries {share:.0%} of the squared error "
+                       "(the value depends on where an edge falls between nodes)")
+    return out
 
 
 def report_note(res: CaseResult) -> str:
-    """One paragraph naming the verified result and the metrics it cannot give."""
+    """One paragraph naming the verified result, the metrics it cannot give, the edge errors in
+    elements and what was done to the input."""
     na = "; ".join(f"{k}: {v}" for k, v in res.unavailable.items())
-    return f"Verified result: {res.source}." + (f" Not available: {na}." if na else "")
+    notes = " ".join(f"Note: {n}." for n in res.notes)
+    meas = " ".join(f"{line[0].upper()}{line[1:]}." for line in measurement_lines(res))
+    return (f"Verified result: {res.source}." + (f" Not available: {na}." if na else "")
+            + (f" {meas}" if meas else "") + (f" {notes}" if notes else ""))
 
 
 def write_verify_report(res: CaseResult, out_dir: str | Path, force: bool = False) -> dict:

@@ -30,7 +30,7 @@ from .errors import ConvergenceError, InputError
 from .farfield import FarField, lift
 from .linsolve import Factor
 from .mesh import TwoBodyMesh, as_windows, build_mesh, read_mesh
-from .results import FemInterface, FemStep, contact_and_stick, runs
+from .results import FemInterface, FemStep, runs, zones_with_uncertainty
 from .settings import (
     ContactSettings,
     LoadPath,
@@ -413,7 +413,8 @@ def make_step(
     candidate = np.zeros(n_all, dtype=bool)
     candidate[cand] = True
     check_outside_gap(gap, candidate, iface.x, stage, load)
-    zones, sticks = contact_and_stick(iface.x, p, q, status, candidate, mu, gap)
+    zones, sticks, u_zones, u_sticks = zones_with_uncertainty(iface.x, p, q, status, candidate,
+                                                              mu, gap)
     M = float(np.sum(iface.x * p * iface.w)) if load.M is None else load.M
     reac = fields.reactions(i)
     scale = (P0, P0, P0 * max(fields.lever, float(np.max(np.abs(prob.x)))))
@@ -448,6 +449,8 @@ def make_step(
         reactions=reac,
         residuals=res,
         iterations=st.iterations,
+        edge_uncertainty=u_zones,
+        stick_uncertainty=u_sticks,
     )
 
 

@@ -3,13 +3,15 @@
 Two layouts (docs/external.md): a manifest ``steps.csv`` with one row per load step
 (``stage, P, Q[, M, theta], file``) pointing at one node table per step, or a folder of step
 files, each holding its loads as header items (``# stage = 1``, ``# P = 100`` ...).  Header lines
-are ``# key = value``; other ``#`` lines are comments.  The first other line names the columns.
+are ``# key = value`` with a one-word key (:data:`HEADER_KEY`); other ``#`` lines are comments.
+The first other line names the columns.
 """
 
 from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -29,6 +31,10 @@ from compare.external.exchange import (
 from compare.fileio import owned_output, plan_output
 
 MANIFEST = "steps.csv"
+#: A header item is ``# key = value`` with key one word (letters, digits, _); it must be a known
+#: key (a misspelt one is an error, not a silent comment).  Any other ``#`` line is a comment,
+#: also one holding '=' (e.g. ``# solver tolerance = 1e-8``).
+HEADER_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 LOAD_KEYS = ("stage", "P", "Q", "M", "theta")
 MANIFEST_COLUMNS = ("stage", "P", "Q", "file")
 FORMAT_LINE = "# multicontact interface result (docs/external.md), format 1"
@@ -57,7 +63,7 @@ def read_table(path: Path) -> Table:
             continue
         if line.lstrip().startswith("#"):
             key, eq, value = line.lstrip()[1:].partition("=")
-            if eq and names is None and key.strip():
+            if eq and names is None and HEADER_KEY.fullmatch(key.strip()):
                 _set_item(items, item_lines, key.strip(), value.strip(), f"{path}, line {no}")
             continue
         cells = next(csv.reader([line]))
@@ -102,7 +108,9 @@ def node_columns(table: Table, conv: Conventions) -> dict:
         for name, cell in zip(table.names, cells, strict=True):
             cols[name].append(cell.strip())
     first = table.rows[0][0]
-    out = {"status": status_codes(cols.pop("status"), str(table.path), first)}
+    out = {}
+    if "status" in cols:
+        out["status"] = status_codes(cols.pop("status"), str(table.path), first)
     for name, vals in cols.items():
         out[name] = np.array([_float(v, f"{table.path}, line {first + i}", name,
                                      allow_inf=name == "gap") for i, v in enumerate(vals)])

@@ -1,7 +1,7 @@
 """The exchange format's data model: conventions, raw step tables, conversion to our convention.
 
 A result is a sequence of load steps.  Each step carries its stage (1, 2, 3), the loads P, Q
-(and M or theta) and the interface nodal table ``x, p, q, status`` (optional ``w, slip, gap,
+(and M or theta) and the interface nodal table ``x, p, q`` (optional ``status, w, slip, gap,
 ux``).  The file readers (:mod:`compare.external.csvio`, :mod:`compare.external.vtkio`) build
 :class:`RawStep` tables in the file's own units and signs; :func:`to_history` converts them with
 the :class:`Conventions` into an FE-like :class:`fem.FemHistory` in our convention (p >= 0
@@ -19,11 +19,24 @@ import numpy as np
 
 import fem
 from compare.errors import CaseError
-from fem.results import contact_and_stick
+from fem.results import zones_with_uncertainty
 
 #: Columns every step table must have, and the optional ones (see docs/external.md).
-REQUIRED_COLUMNS = ("x", "p", "q", "status")
-OPTIONAL_COLUMNS = ("w", "slip", "gap", "ux")
+REQUIRED_COLUMNS = ("x", "p", "q")
+OPTIONAL_COLUMNS = ("status", "w", "slip", "gap", "ux")
+#: Without a status column a node is open where p <= 0, slip where |q| >= (1 - STATUS_EPS) mu p
+#: and stick otherwise: Kratos 10.3 (ALM mortar, cattaneo) has |q| / mu p >= 1 - 2e-5 on its slip
+#: nodes and <= 0.985 on its stick nodes.
+STATUS_EPS = 1e-3
+#: Per step, sum p w must give P and sum q w must give Q within this fraction of P: measured
+#: 0.12 % (P) and 0.04 % (Q) on Kratos 10.3 (cattaneo level 0, default tributary widths), < 1e-9
+#: on our own FE export; a sign, unit or width mistake is off by O(1) or a power of ten.
+CONSISTENCY_RTOL = 0.01
+#: Negative pressure down to this fraction of the step's largest p (a penalty code's open or
+#: barely touching nodes) is clipped to 0 with a note; a lower one is an input error.  Kratos
+#: 10.3 writes none; a chosen bound (no penalty code measured yet), 1 % of p_max moves sum p w by
+#: far less than CONSISTENCY_RTOL.
+NEGATIVE_P_RTOL = 0.01
 #: Status words accepted besides the codes 0 / 1 / 2.
 STATUS_WORDS = {"open": 0, "stick": 1, "slip": 2}
 #: Two steps list the same interface nodes when their x differ by less than this fraction of
@@ -77,7 +90,8 @@ META_KEYS = {"code": str, "case": str, "dofs": int, "order": int, "seconds": flo
 
 @dataclass(frozen=True)
 class RawStep:
-    """One load step as read (file units and signs); ``where`` names it in error messages."""
+    """One load step as read (file units and signs); ``where`` names it in error messages;
+    ``columns``: name -> array (``status`` may be absent: derived, :func:`derived_status`)."""
 
     where: str
     stage: int
@@ -179,10 +193,65 @@ def convert(raw: RawStep, conv: Conventions) -> dict:
     scale = 1.0 / w_file if conv.values == "force" else 1.0
     return {"x": L * (x_file - conv.x_origin), "w": L * w_file,
             "p": conv.pressure_sign * S * c["p"] * scale,
-            "q": conv.shear_sign * S * c["q"] * scale, "status": c["status"],
+            "q": conv.shear_sign * S * c["q"] * scale, "status": c.get("status"),
             "slip": conv.shear_sign * L * c["slip"] if "slip" in c else np.full(x_file.size,
                                                                                  np.nan),
             "gap": L * c["gap"] if "gap" in c else np.full(x_file.size, np.nan)}
+
+
+def check_consistency(raw: RawStep, a: dict, P: float, Q: float) -> tuple[dict, str]:
+    """A step's nodal table against its own loads, before anything is measured.
+
+    Finite positive widths; sum p w = P and sum q w = Q within CONSISTENCY_RTOL * P; p >=
+    -NEGATIVE_P_RTOL * max p.  Returns the arrays (small negative p clipped to 0) and a note
+    ('' if nothing was clipped); raises :class:`CaseError` naming the step, the two numbers and
+    the likely cause."""
+    w, p = a["w"], a["p"]
+    if not np.all(np.isfinite(w)) or np.any(w <= 0):
+        i = int(np.flatnonzero(~(np.isfinite(w) & (w > 0)))[0])
+        raise CaseError(f"{raw.where}: tributary length w = {float(w[i])!r} at node {i + 1}; "
+                        "allowed: finite numbers > 0")
+    tol = CONSISTENCY_RTOL * P
+    for name, f, load in (("p", p, P), ("q", a["q"], Q)):
+        total = float(np.sum(f * w))
+        if abs(total - load) > tol:
+            raise CaseError(f"{raw.where}: sum {name} w = {total:.6g} but the step's "
+                            f"{'P' if name == 'p' else 'Q'} = {load:.6g} (allowed difference "
+                            f"{CONSISTENCY_RTOL:.0%} of P = {tol:.4g}); likely cause: "
+                            f"{likely_cause(name, total, load, P)}")
+    low = float(np.min(p))
+    top = float(np.max(p))
+    if low >= 0:
+        return a, ""
+    if low < -NEGATIVE_P_RTOL * top:
+        i = int(np.argmin(p))
+        raise CaseError(f"{raw.where}: pressure p = {low:.6g} at node {i + 1} (x = "
+                        f"{float(a['x'][i]):.6g}) is tensile beyond {NEGATIVE_P_RTOL:.0%} of the "
+                        f"largest p = {top:.6g}; contact cannot pull (check pressure_sign, or "
+                        "the code's contact settings)")
+    n = int(np.sum(p < 0))
+    note = (f"{raw.where}: {n} node(s) with small negative p (down to {low:.3g}, "
+            f"{-low / top:.2%} of the largest p) clipped to 0")
+    return a | {"p": np.maximum(p, 0.0)}, note
+
+
+def likely_cause(name: str, total: float, load: float, P: float) -> str:
+    """What most likely makes sum f w differ from its load: a sign, a power of ten, widths."""
+    sign_key = "pressure_sign" if name == "p" else "shear_sign"
+    if load != 0 and abs(total + load) <= CONSISTENCY_RTOL * P:
+        return (f"the sign of {name} ({sign_key} = -1 if the file's {name} has the opposite "
+                "sign to its load)")
+    if name == "q" and abs(total) > CONSISTENCY_RTOL * P and abs(load) <= CONSISTENCY_RTOL * P:
+        return (f"q does not sum to the tangential load; check {sign_key} and which body's "
+                "shear is written (q must act on body 1)")
+    if total != 0 and load != 0:
+        k = math.log10(abs(total / load))
+        if round(k) != 0 and abs(k - round(k)) < 0.05:
+            return (f"a unit off by a power of ten (sum {name} w / load = {total / load:.3g}): "
+                    "stress or length unit of the nodal table different from the loads' "
+                    "(stress_scale, length_scale, or the file's units)")
+    return ("the tributary lengths w (a given w column, or values = force vs traction), nodes "
+            "missing from the table, or the x unit")
 
 
 def interface(a: dict) -> fem.FemInterface:
@@ -220,11 +289,21 @@ class ExternalResult:
                  c.theta_sign * s.theta) for s in self.steps]
 
     def history(self, mu: float, E: float = math.nan, nu: float = math.nan) -> fem.FemHistory:
-        """FE-like history in our convention; zones from ``fem.results.contact_and_stick``."""
+        """FE-like history in our convention; zones from ``fem.results.zones_with_uncertainty``."""
+        return self.checked_history(mu, E, nu)[0]
+
+    def checked_history(self, mu: float, E: float = math.nan, nu: float = math.nan
+                        ) -> tuple[fem.FemHistory, tuple[str, ...]]:
+        """(:meth:`history`, notes): every step passes :func:`check_consistency` first (an
+        input error otherwise); the notes say what was clipped."""
         check_stages(self)
         loads = self.loads()
         arrays = [convert(s, self.conventions) for s in self.steps]
         check_same_nodes(self.steps, arrays)
+        checked = [check_consistency(s, a, ld[1], ld[2])
+                   for s, a, ld in zip(self.steps, arrays, loads, strict=True)]
+        arrays = [a for a, _ in checked]
+        notes = tuple(n for _, n in checked if n)
         ends = {st: (P, Q) for st, P, Q, _, _ in loads}
         P0, Q0 = ends[1][0], ends.get(2, (0.0, 0.0))[1]
         steps = tuple(_step(i, ld, a, mu, P0, Q0)
@@ -234,19 +313,29 @@ class ExternalResult:
         return fem.FemHistory(steps=steps, n_dofs=self.meta.dofs, order=self.meta.order,
                               backend=self.meta.code, timings={"external": self.meta.seconds},
                               mu=mu, E=E, nu=nu, P0=P0, Q0=Q0, h_min=h,
-                              n_candidates=int(x.size), fields=None)
+                              n_candidates=int(x.size), fields=None), notes
+
+
+def derived_status(p: np.ndarray, q: np.ndarray, mu: float) -> np.ndarray:
+    """Status of nodes from their tractions (no status column): 0 open where p <= 0, 2 slip
+    where |q| >= (1 - STATUS_EPS) mu p, else 1 stick."""
+    slip = np.abs(q) >= (1.0 - STATUS_EPS) * mu * p
+    return np.where(p > 0, np.where(slip, 2, 1), 0).astype(np.int8)
 
 
 def _step(i: int, load: tuple, a: dict, mu: float, P0: float, Q0: float) -> fem.FemStep:
     stage, P, Q, M, theta = load
+    if a["status"] is None:
+        a = a | {"status": derived_status(a["p"], a["q"], mu)}
     candidate = ~np.isinf(a["gap"])
     # the gap side locates an edge as the FE model does (NaN gaps: from the pressure side)
-    zones, sticks = contact_and_stick(a["x"], a["p"], a["q"], a["status"], candidate, mu,
-                                      a["gap"])
+    zones, sticks, u_zones, u_sticks = zones_with_uncertainty(
+        a["x"], a["p"], a["q"], a["status"], candidate, mu, a["gap"])
     return fem.FemStep(index=i, stage=stage, t=_t(stage, P, Q, P0, Q0), P=P, Q=Q, M=M,
                        interface=interface(a), contact_zones=zones, stick_zones=sticks,
                        plate=(math.nan, math.nan, theta), reactions=(P, Q, M),
-                       residuals=(math.nan,) * 3, iterations=0)
+                       residuals=(math.nan,) * 3, iterations=0, edge_uncertainty=u_zones,
+                       stick_uncertainty=u_sticks)
 
 
 def check_stages(res: ExternalResult) -> None:

@@ -1,7 +1,7 @@
 """VTK series of the exchange format: a ``.pvd`` collection of ``.vtu`` interface lines.
 
 Each interface ``.vtu`` holds the nodes as points (x = first coordinate), the point data
-``p, q, status`` (optional ``w, slip, gap, ux``; other arrays are ignored) and the step's loads
+``p, q`` (optional ``status, w, slip, gap, ux``; other arrays are ignored) and the step's loads
 as field data ``stage, P, Q`` (optional ``M, theta``), as ``fem.write_vtk`` writes them.  A
 ``.pvd`` listing several parts (e.g. bodies and interface) is read for the part whose ``.vtu``
 files are lines with point data ``p``.  Conventions and meta data come from ``settings``.
@@ -78,12 +78,13 @@ def raw_step(mesh, where: str, conv) -> RawStep:
             raise CaseError(f"{where}: point data '{n}' is {float(v[bad][0])!r} at point "
                             f"{int(np.flatnonzero(bad)[0])}; allowed: finite numbers")
         cols[n] = v
-    st = cols["status"]
-    odd = st[~np.isin(st, (0, 1, 2))]
-    if odd.size:
-        raise CaseError(f"{where}: point data 'status' has {float(odd[0])!r}; allowed: 0 open, "
-                        "1 stick, 2 slip")
-    cols["status"] = st.astype(np.int8)
+    if "status" in cols:
+        st = cols["status"]
+        odd = st[~np.isin(st, (0, 1, 2))]
+        if odd.size:
+            raise CaseError(f"{where}: point data 'status' has {float(odd[0])!r}; allowed: 0 "
+                            "open, 1 stick, 2 slip")
+        cols["status"] = st.astype(np.int8)
     stage = _field(mesh, "stage", where, True)
     if stage not in (1.0, 2.0, 3.0):
         raise CaseError(f"{where}: field data stage = {stage!r}; allowed: 1, 2, 3")

@@ -26,6 +26,8 @@ ELEMENTS = {1: "Q4 (linear)", 2: "Q9 (quadratic)"}
 #: names that code as its backend: nothing to announce).
 FAST_BACKEND = "cholmod"
 SLOW_BACKENDS = set(BACKENDS) - {FAST_BACKEND}
+#: CaseResult.source of our own FE (an external result names its code and files).
+OWN_FE = "multicontact fem"
 
 
 def img(data: bytes, alt: str, cls: str = "") -> str:
@@ -84,7 +86,8 @@ def verdict_text(res) -> str:
 
 def backend_notice(sections) -> str:
     """A loud line when a case ran without the fast sparse backend (else empty)."""
-    slow = sorted({s.result.fem.backend for s in sections} & SLOW_BACKENDS)
+    slow = sorted({s.result.fem.backend for s in sections if is_own_fe(s.result.source)}
+                  & SLOW_BACKENDS)
     if not slow:
         return ""
     return (f'<p class="loud">Sparse backend: {", ".join(slow)}. CHOLMOD (scikit-sparse) is '
@@ -92,13 +95,33 @@ def backend_notice(sections) -> str:
             "the same. Install python3-dev and libsuitesparse-dev and run make again.</p>")
 
 
+def is_own_fe(source: str) -> bool:
+    """Whether a result is our own FE run (else an external code's, ``compare.verify``)."""
+    return source == OWN_FE
+
+
+def fe_text(res, bold: str = "**", sep: str = ", ", esc=str) -> str:
+    """'Backend **B**, N DOFs, Q4 (linear), level L' of our FE; 'Code **C**, N DOFs, element
+    order k' of an external result, 'not given' where its header gives no DOF count or order
+    (``bold``: the markup around the name; ``sep`` between the items; ``esc`` for the name)."""
+    fe = res.fem
+    end = bold.replace("<", "</") if bold.startswith("<") else bold
+    name = esc(fe.backend)
+    if is_own_fe(res.source):
+        return sep.join((f"Backend {bold}{name}{end}", f"{fe.n_dofs} DOFs",
+                         f"{ELEMENTS.get(fe.order, f'order {fe.order}')}, level "
+                         f"{res.case.fem.level}"))
+    dofs = f"{fe.n_dofs} DOFs" if fe.n_dofs > 0 else "DOFs not given"
+    order = f"element order {fe.order}" if fe.order > 0 else "element order not given"
+    return sep.join((f"Code {bold}{name}{end}", dofs, order))
+
+
 def case_head(sec) -> str:
     """Top line of a case: backend, DOFs, elements, verdict with the worst metric, run time."""
     res, fe = sec.result, sec.result.fem
     t = res.timings
-    return (f'<p class="head">backend <b>{html.escape(fe.backend)}</b> &middot; '
-            f"{fe.n_dofs} DOFs &middot; {ELEMENTS.get(fe.order, f'order {fe.order}')}, level "
-            f"{res.case.fem.level}, h = {fe.h_min:.3g} &middot; "
+    head = fe_text(res, "<b>", " &middot; ", html.escape)
+    return (f'<p class="head">{head[0].lower()}{head[1:]}, h = {fe.h_min:.3g} &middot; '
             f'<span class="{"pass" if res.passed else "FAIL"}">'
             f"{html.escape(verdict_text(res))}</span> &middot; run time "
             f"{sum(t.values()):.1f} s ({', '.join(f'{k} {v:.1f}' for k, v in t.items())}) "
@@ -265,7 +288,8 @@ def fig5_index_html(rows: list[dict]) -> str:
 # Markdown
 # ---------------------------------------------------------------------------------------------
 def md_document(summary: dict) -> str:
-    slow = sorted({c["fem"]["backend"] for c in summary["cases"]} & SLOW_BACKENDS)
+    slow = sorted({c["fem"]["backend"] for c in summary["cases"]
+                   if is_own_fe(c.get("source", OWN_FE))} & SLOW_BACKENDS)
     loud = ([f"**Sparse backend: {', '.join(slow)}. CHOLMOD (scikit-sparse) is not available: "
              "the FE model ran on a slower solver (2.5-4x); the numbers are the same.**\n"]
             if slow else [])
@@ -280,10 +304,9 @@ def md_document(summary: dict) -> str:
 
 def case_md(sec) -> str:
     res = sec.result
-    fe, tm = res.fem, res.timings
+    tm = res.timings
     lines = [f"\n## {res.case.name}: {'agrees' if res.passed else 'FAILS'}\n",
-             f"Backend **{fe.backend}**, {fe.n_dofs} DOFs, "
-             f"{ELEMENTS.get(fe.order, f'order {fe.order}')}, level {res.case.fem.level}; "
+             f"{fe_text(res)}; "
              f"{verdict_text(res)}; run time {sum(tm.values()):.1f} s + report "
              f"{sec.seconds:.1f} s.\n",
              res.case.description + "\n", "| check | metric | value | tolerance | status |",

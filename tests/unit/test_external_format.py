@@ -115,16 +115,30 @@ def _line(path, no, new):
     path.write_text("\n".join(lines) + "\n")
 
 
+def _columns(path, **change) -> None:
+    """Rewrite data columns of a step file: name -> function of the dict of column arrays."""
+    lines = path.read_text().splitlines()
+    n_head = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+    names = lines[n_head].split(",")
+    cols = {n: np.array([float(r.split(",")[i]) for r in lines[n_head + 1:]])
+            for i, n in enumerate(names)}
+    cols |= {k: f(cols) for k, f in change.items()}
+    rows = [",".join(str(int(v)) if k == "status" else repr(float(v)) for k, v in
+                     zip(cols, vals, strict=True)) for vals in zip(*cols.values(), strict=True)]
+    path.write_text("\n".join(lines[:n_head] + [",".join(cols)] + rows) + "\n")
+
+
 @pytest.mark.parametrize("mutate, words", [
     (lambda m, s: _edit(s, "x,p,q,status", "x,p,status"), ["s1.csv", "missing column 'q'"]),
     (lambda m, s: _line(s, 5, "0.1,nan,0.0,1"), ["s1.csv, line 5", "'p'", "finite"]),
     (lambda m, s: _line(s, 5, "-0.1999,1.0,0.0,1"), ["s1.csv", "x must increase strictly"]),
     (lambda m, s: _line(s, 5, "-0.1975,1.0,0.0,4"), ["s1.csv, line 5", "status '4'"]),
     (lambda m, s: _line(s, 5, "-0.1975,1.0"), ["s1.csv, line 5", "2 values, expected 4"]),
-    (lambda m, s: _edit(m, "1,100.0,", "1,140.0,"), ["steps.csv, line 3", "P = 140",
-                                                      "does not match the case"]),
-    (lambda m, s: _edit(m, "1,100.0,0.0", "1,100.0,25.0"), ["steps.csv, line 3", "stage-1 step",
-                                                                   "Q = 25"]),
+    (lambda m, s: (_edit(m, "1,100.0,", "1,140.0,"), _columns(s, p=lambda c: 1.4 * c["p"])),
+     ["steps.csv, line 3", "P = 140", "does not match the case"]),
+    (lambda m, s: (_edit(m, "1,100.0,0.0", "1,100.0,25.0"),
+                   _columns(s, q=lambda c: 0.25 * c["p"])),
+     ["steps.csv, line 3", "stage-1 step", "Q = 25"]),
     (lambda m, s: _edit(m, "1,50.0,", "4,50.0,"), ["steps.csv, line 2", "stage '4'"]),
     (lambda m, s: _edit(m, "s1.csv", "nope.csv"), ["steps.csv, line 3", "'nope.csv' not found"]),
     (lambda m, s: m.write_text("# colour = red\n" + m.read_text()),
@@ -235,3 +249,44 @@ def test_deformed_x_with_ux_gives_the_same_metrics(tmp_path):
     (folder / "s1.csv").write_text((folder / "s1.csv").read_text().replace(",ux", ",uy"))
     with pytest.raises(CaseError, match="s1.csv: missing column 'ux'"):
         verify(CASE, folder)
+
+
+def test_comment_lines_with_equals_are_comments(tmp_path):
+    """Only '# key = value' with a one-word key is a header item; '# solver tol = 1e-8' and
+    '# run at T=20 C' are comments (a one-word unknown key stays an error: a misspelt key)."""
+    f = write_result(tmp_path / "c", head="# solver tolerance = 1e-8\n# run at T=20 C\n"
+                     "# code = mine\n")
+    res = verify(CASE, f)
+    assert res.passed and res.source.startswith("mine")
+
+
+def test_cli_json_error_object_and_nothing_written(tmp_path, capsys):
+    """An input error with --json: the message on stderr and a JSON error object on stdout;
+    with -o nothing is written."""
+    import json
+
+    from compare.cli import main
+
+    f = write_result(tmp_path / "sign", head="# pressure_sign = -1\n")  # p is compressive > 0
+    out = tmp_path / "report"
+    assert main(["verify", "hertz", str(f), "--json", "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    err = json.loads(captured.out)["error"]
+    assert err["kind"] == "input" and err["exit_code"] == 2
+    assert "sum p w = -" in err["message"] and "sign of p" in captured.err
+    assert not out.exists()
+
+
+def test_external_report_names_the_code_not_a_sparse_backend(tmp_path):
+    from compare.verify import write_verify_report
+
+    f = write_result(tmp_path / "r", head="# code = MyCode 2.1\n")
+    res = verify(CASE, f)
+    write_verify_report(res, tmp_path / "rep")
+    page = (tmp_path / "rep" / "index.html").read_text()
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert "CHOLMOD" not in page and "CHOLMOD" not in md
+    assert "Q4" not in md and "0 DOFs" not in md and "level" not in md.split("Verified")[0]
+    assert "Code **MyCode 2.1**, DOFs not given, element order not given" in md
+    assert "code <b>MyCode 2.1</b> &middot; DOFs not given" in page
+    assert "element" in md  # the edge error in elements is on the page

@@ -1,0 +1,209 @@
+"""Edge estimators on noisy nodal data (another code's mortar pressure ripples from node to node)
+and the stick-zone rule against stray stick flags.
+
+The data are exact closed forms sampled at nodes (Hertz p = sqrt(a^2 - x^2); Cattaneo q = mu (p -
+sqrt(c^2 - x^2))), so the true edges are known; the noise is multiplicative (a fraction of the
+local value), at several node spacings h and edge phases (where the edge falls between nodes).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fem.results import (
+    OPEN,
+    SLIP,
+    STICK,
+    contact_and_stick,
+    edge_estimate,
+    is_noisy,
+    runs,
+    sqrt_edge,
+    stick_edge_estimate,
+    zones_with_uncertainty,
+)
+
+#: Edge error (elements) of edge_estimate on Hertz with a +-2 % node-to-node ripple (period 2 or
+#: 3), h = a/20, a/40, a/80, 20 phases each: measured 0.046.
+RIPPLE_EDGE_ACCURACY = 0.05
+#: The same with +-1 % uniform random noise: 95th percentile measured 0.019 (max 0.060 at
+#: h = a/20); the estimator's uncertainty covers the true error in >= 99 % of the samples.
+RANDOM_EDGE_P95, RANDOM_COVERED = 0.05, 0.97
+#: sqrt_edge (fit of nodes 3-7 from the end) on the alternating ripple: measured up to 0.15
+#: element at h = a/40 (the issue saw 0.12 and 0.21 on Kratos T3 results).
+OLD_RIPPLE_ERROR = 0.1
+#: Stick edges on Cattaneo (c/a = 0.4, 0.63, 0.8) with a +-2 % ripple common to p and the
+#: reduced-problem pressure (q = mu (p - p*) sampled with the same ripple), h = a/40 and a/80,
+#: 10 phases: measured 0.042 element, always within the uncertainty.
+STICK_RIPPLE_ACCURACY = 0.05
+SPACINGS = (20, 40, 80)
+PHASES = np.linspace(0.0, 1.0, 21)[:-1]
+
+
+def ripple(k: np.ndarray, kind: str, rng: np.random.Generator) -> np.ndarray:
+    if kind == "alternating":
+        return 0.02 * (-1.0) ** k
+    if kind == "period3":
+        return 0.02 * np.cos(2 * np.pi * k / 3)
+    return rng.uniform(-0.01, 0.01, k.size)
+
+
+def hertz(n: int, phase: float, kind: str | None, rng=None):
+    """Nodes of spacing h = 1/n around the zone [-1, 1], shifted by ``phase`` elements."""
+    h = 1.0 / n
+    x = (np.arange(-n - 5, n + 6) + phase) * h
+    p = np.sqrt(np.clip(1.0 - x * x, 0.0, None))
+    if kind:
+        p = p * (1.0 + ripple(np.arange(x.size), kind, rng))
+    return x, p, h
+
+
+def edge_errors(kind: str, rng=None) -> tuple[np.ndarray, np.ndarray]:
+    """(|error| / h, covered by the uncertainty) over spacings, phases and both edges."""
+    err, cov = [], []
+    for n in SPACINGS:
+        for phase in PHASES:
+            x, p, h = hertz(n, phase, kind, rng)
+            (run,) = runs(p > 0)
+            for step in (-1, 1):
+                e, u = edge_estimate(x, p, run, step)
+                err.append(abs(e - step) / h)
+                cov.append(abs(e - step) <= u)
+    return np.array(err), np.array(cov)
+
+
+@pytest.mark.parametrize("kind", ["alternating", "period3"])
+def test_edge_with_ripple_within_a_twentieth_element_and_covered(kind):
+    err, cov = edge_errors(kind)
+    assert err.max() <= RIPPLE_EDGE_ACCURACY, err.max()
+    assert cov.all()
+
+
+def test_edge_with_random_noise():
+    err, cov = edge_errors("random", np.random.default_rng(7))
+    assert np.percentile(err, 95) <= RANDOM_EDGE_P95
+    assert cov.mean() >= RANDOM_COVERED, cov.mean()
+
+
+def test_the_old_fit_extrapolates_the_ripple():
+    """What the band estimator fixes: the fit of five inner nodes puts edges 0.2+ element off."""
+    worst = 0.0
+    for phase in PHASES:
+        x, p, h = hertz(40, phase, "alternating")
+        (run,) = runs(p > 0)
+        worst = max(worst, abs(sqrt_edge(x, p, run, 1) - 1.0) / h)
+    assert worst > OLD_RIPPLE_ERROR
+
+
+@pytest.mark.parametrize("phase", [0.0, 0.37, 0.81])
+def test_smooth_data_keep_sqrt_edge_exactly(phase):
+    """One rule for both codes: smooth nodal data (our own FE) are not noisy, and the estimate
+    is sqrt_edge's to the last bit; only the uncertainty is added."""
+    x, p, h = hertz(40, phase, None)
+    (run,) = runs(p > 0)
+    for step in (-1, 1):
+        assert not is_noisy(x, p, run, step)
+        e, u = edge_estimate(x, p, run, step)
+        assert e == sqrt_edge(x, p, run, step)
+        assert 0 <= u < 0.01 * h
+
+
+def cattaneo(n: int, phase: float, c: float, mu: float = 0.3, noisy: bool = True):
+    h = 1.0 / n
+    x = (np.arange(-n - 5, n + 6) + phase) * h
+    r = 0.02 * (-1.0) ** np.arange(x.size) if noisy else 0.0
+    p = np.sqrt(np.clip(1.0 - x * x, 0.0, None)) * (1.0 + r)
+    p_star = np.sqrt(np.clip(c * c - x * x, 0.0, None)) * (1.0 + r)
+    q = mu * (p - p_star)
+    status = np.where(p > 0, np.where(np.abs(x) < c, STICK, SLIP), OPEN).astype(np.int8)
+    return x, p, q, status, h
+
+
+@pytest.mark.parametrize("n", [40, 80])
+def test_stick_edge_with_ripple(n):
+    mu = 0.3
+    for c in (0.4, 0.63, 0.8):
+        for phase in PHASES[::2]:
+            x, p, q, status, h = cattaneo(n, phase, c, mu)
+            (run,) = runs(status == STICK)
+            for step in (-1, 1):
+                e, u = stick_edge_estimate(x, p, q, mu, run, step)
+                assert abs(e - step * c) / h <= STICK_RIPPLE_ACCURACY
+                assert abs(e - step * c) <= u
+
+
+def test_every_edge_carries_its_uncertainty():
+    x, p, q, status, h = cattaneo(40, 0.3, 0.63)
+    zones, sticks, u_zones, u_sticks = zones_with_uncertainty(
+        x, p, q, status, np.ones(x.size, bool), 0.3)
+    assert len(u_zones) == len(zones) == 1 and len(u_sticks) == len(sticks) == 1
+    assert all(0 <= u < 0.2 * h for u in u_zones[0] + u_sticks[0])
+    assert abs(zones[0][1] - 1.0) <= u_zones[0][1] and abs(sticks[0][1] - 0.63) <= u_sticks[0][1]
+
+
+# ---------------------------------------------------------------------------------------------
+# the stick-zone rule: one flipped flag at each end of a zone
+# ---------------------------------------------------------------------------------------------
+#: A flag flipped at a stick zone's own edge moves the located stick edge by at most this many
+#: elements (the edge comes from mu p - |q|, not from the flags: a slip-flagged node where it is
+#: clearly positive stays in the run, the fit skips the two outermost nodes): measured 0 (to
+#: round-off) on smooth Cattaneo data, h = a/40.
+FLIPPED_AT_STICK_EDGE = 1e-9
+
+
+def clean(phase: float = 0.3):
+    return cattaneo(40, phase, 0.63, noisy=False)
+
+
+def sticks_of(x, p, q, status):
+    return contact_and_stick(x, p, q, status, np.ones(x.size, bool), 0.3)[1]
+
+
+@pytest.mark.parametrize("side", [0, -1])
+def test_stray_stick_flag_at_the_contact_edge_does_not_extend_the_stick_zone(side):
+    """The issue's case: the low-pressure node at a contact edge flagged stick (a noisy flag,
+    or |q| <= mu p at p ~ 0) would extend the stick run to the contact edge."""
+    x, p, q, status, h = clean()
+    ref = sticks_of(x, p, q, status)
+    flipped = status.copy()
+    flipped[np.flatnonzero(status > OPEN)[side]] = STICK
+    assert sticks_of(x, p, q, flipped) == ref
+
+
+@pytest.mark.parametrize("side", [0, -1])
+def test_lone_stick_flag_at_an_edge_of_a_full_slip_zone(side):
+    x, p, q, status, h = clean()
+    full_slip = np.where(status > OPEN, SLIP, OPEN).astype(np.int8)
+    assert sticks_of(x, p, mu_q(p), full_slip) == (None,)
+    full_slip[np.flatnonzero(full_slip > OPEN)[side]] = STICK
+    assert sticks_of(x, p, mu_q(p), full_slip) == (None,)
+
+
+def mu_q(p: np.ndarray) -> np.ndarray:
+    return 0.3 * p
+
+
+@pytest.mark.parametrize("side", [0, -1])
+@pytest.mark.parametrize("flip", ["slip node to stick", "stick node to slip"])
+def test_flipped_flag_at_the_stick_edge_keeps_the_edge(side, flip):
+    x, p, q, status, h = clean()
+    ref = sticks_of(x, p, q, status)[0]
+    stick = np.flatnonzero(status == STICK)
+    node = stick[side] + (1 if side == -1 else -1) if flip.startswith("slip") else stick[side]
+    flipped = status.copy()
+    flipped[node] = STICK if flip.startswith("slip") else SLIP
+    got = sticks_of(x, p, q, flipped)[0]
+    assert abs(got[side] - ref[side]) / h <= FLIPPED_AT_STICK_EDGE
+    assert got[1 + side] == ref[1 + side]
+
+
+def test_a_stick_zone_in_the_middle_of_one_node_is_kept():
+    """Near full slip a genuine stick zone may hold one node: away from the zone's ends it is
+    kept (only a lone flag at a near-zero-pressure end is a stray flag)."""
+    x, p, q, status, h = clean()
+    one = np.where(status > OPEN, SLIP, OPEN).astype(np.int8)
+    mid = int(np.argmax(p))
+    one[mid] = STICK
+    got = sticks_of(x, p, q, one)
+    assert got[0] is not None and got[0][0] < x[mid] < got[0][1]
