@@ -128,8 +128,9 @@ def level_row(level: int, layout: str) -> dict:
     from compare.run import run_case
 
     case = load_case("cattaneo")
-    growth = refined_growth(case, level) if layout == "tensor" else case.fem.growth
-    case = case.with_fem(level=level, growth=growth, layout=layout)
+    case = case.with_fem(layout=layout)
+    growth = refined_growth(case, level)
+    case = case.with_fem(level=level, growth=growth)
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     res = run_case(case)
     rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss

@@ -109,3 +109,31 @@ def test_richardson_refuses_a_sequence_crossing_the_limit():
     -3.25e-5, +8.1e-6): estimated order 0.55, an extrapolated error 12x the finest one."""
     val, order, why = mt.richardson_check([-9.2e-5, -3.25e-5, 8.1e-6])
     assert math.isnan(val) and 0.5 < order < 0.75 and "outside" in why
+
+
+def test_the_study_says_which_refinement_ran():
+    free = study(errors(), [1.0 + 0.3 * h for h in H])
+    locked = assemble("synthetic", "h", [0, 1, 2, 3], H, errors(), edges([1.0] * 4), ZONES,
+                      phase_locked=True)
+    assert not free.phase_locked and locked.phase_locked
+    assert "refinement: free phase" in convergence_text(free)
+    assert "refinement: phase-locked" in convergence_text(locked)
+    assert locked.summary()["phase_locked"] is True
+    assert locked.summary()["phase"].startswith("phase-locked")
+
+
+def test_phase_locked_cases_put_a_mesh_node_on_every_analytic_edge():
+    from compare.analytic_side import solve_case
+    from compare.cases import load_case
+    from compare.fem_side import kinks, mesh, mesh_kinks, window
+    from fem.mesh import build_mesh
+
+    case = load_case("two_cylinders_unequal").with_fem(level=-1)
+    normal = solve_case(case).normal
+    assert mesh_kinks(case, normal) == kinks(case)  # the profile's own kink only
+    locked = case.with_fem(edge_nodes=True)
+    edges_ = sorted(e for z in normal.zones for e in z)
+    assert mesh_kinks(locked, normal) == tuple(sorted({*edges_, *kinks(case)}))
+    tbm = build_mesh(mesh(locked), window(locked, normal), mesh_kinks(locked, normal))
+    x = tbm.bodies[0].p[0, tbm.nodes["contact_upper"]]
+    assert max(np.min(np.abs(x - e)) for e in edges_) < 1e-12 * max(map(abs, edges_))

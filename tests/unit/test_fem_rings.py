@@ -6,13 +6,13 @@ import pytest
 
 import fem
 from fem.mesh import as_windows, build_mesh, fine_regions, near_growth
-from fem.rings import MIN_SQUEEZE, convex, layer_plan, side_groups, squeeze
+from fem.rings import GROUP_MAX, MIN_SQUEEZE, convex, layer_plan, squeeze, transition_groups
 
 HERTZ = (-1.98, 1.98)
 #: Longest element edge over the target size h + (g - 1) d (d: distance of the element centre
-#: from the fine region, in the max norm): measured 2.69 / 2.52 at levels 0 / 2 (the spacing
-#: along a ring lags the radial size by up to the 3:1 transition ratio).
-SIZE_OVER_TARGET = 3.0
+#: from the fine region, in the max norm): measured 1.64 / 1.78 at levels 0 / 2 (segments up to
+#: GROUP_MAX times the layer are joined by the 3:1 transitions).
+SIZE_OVER_TARGET = 2.0
 
 
 def box_edges(m, W, H):
@@ -89,11 +89,14 @@ def test_zone_aware_windows_and_kinks_outside_them():
     assert all(np.all(convex(b.p, b.t)) for b in m.bodies)
 
 
-def test_transition_groups_cover_every_segment():
-    for n in range(0, 12):
-        for both in (False, True):
-            g = side_groups(n, both)
-            assert sum(g) == n and set(g) <= {1, 3} and g.count(1) == n % 3
+def test_transition_groups_join_short_segments_and_pass_long_ones():
+    tau = 3.0
+    assert transition_groups(np.ones(7), tau) == [3, 3, 1]
+    assert transition_groups(np.array([1.0, 1, 1, 5, 1, 1, 1]), tau) == [3, 1, 3]
+    long_ = np.full(6, GROUP_MAX * tau / 3 * 1.01)
+    assert transition_groups(long_, tau) == [1] * 6
+    for n in range(12):
+        assert sum(transition_groups(np.ones(n), tau)) == n
 
 
 def test_layer_plan_ends_on_the_boundary():
