@@ -137,3 +137,24 @@ def test_phase_locked_cases_put_a_mesh_node_on_every_analytic_edge():
     tbm = build_mesh(mesh(locked), window(locked, normal), mesh_kinks(locked, normal))
     x = tbm.bodies[0].p[0, tbm.nodes["contact_upper"]]
     assert max(np.min(np.abs(x - e)) for e in edges_) < 1e-12 * max(map(abs, edges_))
+
+
+def test_converge_command_passes_phase_locked_and_prints_which_ran(monkeypatch, capsys):
+    import sys
+
+    from compare.cli import main
+
+    conv = sys.modules["compare.convergence"]  # the package exports a function of that name
+
+    seen = {}
+
+    def fake(case, levels, kind, values, progress, phase_locked):
+        seen["phase_locked"] = phase_locked
+        return assemble("hertz", "h", [0, 1, 2, 3], H, errors(), edges([1.0] * 4), ZONES,
+                        phase_locked=phase_locked)
+
+    monkeypatch.setattr(conv, "convergence", fake)
+    for flag, words in (([], "free phase"), (["--phase-locked"], "phase-locked")):
+        assert main(["converge", "hertz", *flag]) == 0
+        assert seen["phase_locked"] == bool(flag)
+        assert f"refinement: {words}" in capsys.readouterr().out
