@@ -21,6 +21,7 @@ from analytic.errors import InputError as AnalyticInputError
 from analytic.profiles import Profile
 from compare.errors import CaseError
 from compare.tolerances import DEFAULTS as DEFAULT_TOLERANCES
+from fem.settings import GROWTH, LAYOUTS
 
 REQUIRED = object()  # marker: key without a default
 
@@ -52,6 +53,7 @@ FEM_RANGES = {
     "size_factor": (lambda v: v >= 2, ">= 2"),
     "window_margin": (lambda v: 0 <= v <= 1, "0 <= window_margin <= 1"),
     "growth": (lambda v: 1 < v <= 2, "1 < growth <= 2"),
+    "layout": (lambda v: v in LAYOUTS, " or ".join(repr(v) for v in LAYOUTS)),
 }
 DEFAULT_NU = 0.3  # used to split a given composite compliance A into (E, nu) for the FE side
 
@@ -66,7 +68,12 @@ class FemSettings:
     n_normal: increments of stage 1; n_tangential: equal increments of stage 2 (stage 3 has
     twice as many) added to the sample points; size_factor: body half-width / window
     half-width; window_margin: the refined window is the analytic contact span widened by
-    this fraction of the span on each side; growth: element size ratio away from the window.
+    this fraction of the span on each side; growth: element size ratio away from the window
+    (fem.MeshSpec.growth); layout: 'rings' (graded rings, the default) or 'tensor' (the tensor
+    product mesh); edge_nodes: put a mesh node
+    on every analytic contact edge of the full normal load (the phase-locked refinement of
+    ``converge --phase-locked``: the edge error then no longer swings with where the edge falls
+    between nodes).
     """
 
     level: int = 1
@@ -78,7 +85,9 @@ class FemSettings:
     n_tangential: int = 8
     size_factor: float = 8.0
     window_margin: float = 0.05
-    growth: float = 1.2
+    growth: float = GROWTH
+    layout: str = "rings"
+    edge_nodes: bool = False
 
 
 #: The ``[fem]`` keys and their defaults (the type of a value follows its default).

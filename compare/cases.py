@@ -158,6 +158,8 @@ def _check_fem_settings(fem: FemSettings) -> None:
         if isinstance(default, bool) or isinstance(default, str):
             if type(val) is not type(default):
                 raise check.refuse(f"fem.{key}", val, f"a {type(default).__name__}")
+            if key in FEM_RANGES and not FEM_RANGES[key][0](val):
+                raise check.refuse(f"fem.{key}", val, FEM_RANGES[key][1])
             continue
         need = FEM_RANGES[key][1]
         if isinstance(default, int) and (isinstance(val, bool) or not isinstance(val, Integral)):

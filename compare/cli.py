@@ -245,7 +245,8 @@ def cmd_converge(args) -> int:
         n = len(args.levels) if args.kind == "h" else len(args.values or (0, 0, 0))
         task = prog.add_task(f"{args.kind}-convergence of {case.name}", total=n)
         st = convergence(case, levels=args.levels, kind=args.kind, values=args.values,
-                         progress=lambda i, n: prog.update(task, completed=i))
+                         progress=lambda i, n: prog.update(task, completed=i),
+                         phase_locked=args.phase_locked)
     if args.json:
         _print_json(st.summary())
     else:
@@ -369,6 +370,9 @@ def parser() -> argparse.ArgumentParser:
     sp.add_argument("--values", type=float, nargs="+",
                     help="penalty factors (inf: augmented Lagrangian) or size factors (kinds "
                          "penalty / domain)")
+    sp.add_argument("--phase-locked", action="store_true",
+                    help="a mesh node on every analytic contact edge at every level (the edge "
+                         "error then does not swing with the edge's place between nodes)")
     sp = add("report", cmd_report, "verification report (index.html, report.md, summary.json)")
     sp.add_argument("cases", nargs="*", help="cases (default: the default suite)")
     sp.add_argument("-o", "--out", default="report", help="output directory (default report)")

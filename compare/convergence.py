@@ -3,10 +3,12 @@
 The analytic solution is computed once; the FE side is re-run per level.  Observed orders are
 least-squares slopes of ``log(error)`` against ``log(parameter)``:
 
-- ``kind="h"``: parameter = finest interface element length ``h``.  The refinement is uniform:
-  the graded far field is refined too (:func:`refined_growth`, growth -> 1), otherwise its fixed
-  relative coarseness leaves a level-independent error (measured: ~0.1 % of the Hertz width,
-  pressure order dropping to ~0.4).  Expected orders for linear
+- ``kind="h"``: parameter = finest interface element length ``h``.  The graded far field is
+  refined too, otherwise its fixed relative coarseness leaves a level-independent error
+  (measured on the tensor mesh: ~0.1 % of the Hertz width, pressure order dropping to ~0.4):
+  the default ring mesh does it by itself (its rate ``1 + (growth - 1) 2^(-(level+1)/2)``
+  falls with the level, fem.mesh.near_growth), the tensor mesh by :func:`refined_growth`
+  (growth -> 1).  Expected orders for linear
   (Q4) elements: pressure L2 error ~ h^1 (the penalty error ``p/k_n`` with ``k_n ~ E/h`` is
   O(h), and the sqrt edge behaviour limits the nodal interpolation near the edges to about
   h^1.5), the edge error ~ h^1 or better (edges located inside one element, then extrapolated).
@@ -18,6 +20,13 @@ least-squares slopes of ``log(error)`` against ``log(parameter)``:
   Lagrangian (the default values).
 - ``kind="domain"``: parameter = ``1 / size_factor`` (finite-body error of the half-plane
   idealisation; measured order ~1.1-1.3 for Cattaneo, size factors 4 / 8 / 25).
+
+Phase: the FE contact edge falls at a different place inside its element at every level, and
+the edge error (and the pressure error next to it) swings with that phase, so an h-study on a
+smooth-edge case is non-monotone.  ``phase_locked=True`` (``converge --phase-locked``) puts a
+mesh node on every analytic contact edge of the full normal load at every level
+(``fem.edge_nodes``, as the slow Hertz order test does), which measures the order itself; the
+study says which one ran (``phase_locked``, in its verdict line and summary).
 
 Honesty: besides the least-squares orders the study reports the local order and the ratio of
 successive errors; an error whose local order over the last refinement is below STALL_ORDER
@@ -89,7 +98,8 @@ class ConvergenceStudy:
     richardson_edges (nan where refused); richardson_reason ('' or why it was refused);
     richardson_error: max |edge_R - edge_an| / zone width; edge_shift: max |edge - edge of the
     last run| / zone width over the runs (penalty: how far the edges move); converges: see
-    MIN_ORDER and STALL_ORDER (penalty: edge_shift <= PENALTY_EDGE_SHIFT).
+    MIN_ORDER and STALL_ORDER (penalty: edge_shift <= PENALTY_EDGE_SHIFT); phase_locked: True
+    when every run had a mesh node on each analytic edge (FemSettings.edge_nodes).
     """
 
     case_name: str
@@ -110,6 +120,7 @@ class ConvergenceStudy:
     edge_shift: float
     converges: bool
     timings: tuple
+    phase_locked: bool = False
 
     def verdict(self) -> str:
         """One line in words: 'converges' (penalty: with how far the edges move) or 'does not
@@ -153,7 +164,15 @@ class ConvergenceStudy:
                 "richardson_reason": self.richardson_reason,
                 "richardson_error": _clean(self.richardson_error),
                 "edge_shift": _clean(self.edge_shift),
-                "converges": self.converges, "timings": list(self.timings)}
+                "converges": self.converges, "timings": list(self.timings),
+                "phase_locked": self.phase_locked, "phase": phase_text(self.phase_locked)}
+
+
+def phase_text(locked: bool) -> str:
+    """Which refinement ran, in words."""
+    if locked:
+        return "phase-locked (a mesh node on every analytic contact edge at every level)"
+    return "free phase (the edges fall anywhere inside their elements: edge errors oscillate)"
 
 
 def _clean(v):
@@ -168,7 +187,11 @@ def _finite_pair(errs: Sequence[float]) -> bool:
 
 
 def refined_growth(case: Case, level: int) -> float:
-    """Far-field growth ratio at ``level``: ``1 + (g - 1) 2^(level_case - level)`` (<= 2)."""
+    """Far-field growth ratio at ``level``: the case's own for the ring layout (its rate falls
+    with the level by itself), ``1 + (g - 1) 2^(level_case - level)`` (<= 2) for the tensor
+    layout."""
+    if case.fem.layout == "rings":
+        return case.fem.growth
     return min(1.0 + (case.fem.growth - 1.0) * 2.0 ** (case.fem.level - level), 2.0)
 
 
@@ -245,14 +268,18 @@ def _values(kind: str, levels: Sequence[int], values: Sequence[float] | None) ->
 
 def convergence(case: Case | str, levels: Sequence[int] = (0, 1, 2), kind: str = "h",
                 values: Sequence[float] | None = None,
-                progress: Callable[[int, int], None] | None = None) -> ConvergenceStudy:
+                progress: Callable[[int, int], None] | None = None,
+                phase_locked: bool = False) -> ConvergenceStudy:
     """Run a convergence study of ``case``.
 
     ``kind="h"`` uses ``levels`` (>= 3 for Richardson); ``kind="penalty"`` / ``"domain"`` use
     ``values`` (penalty factors, ``inf`` = augmented Lagrangian / size factors) at the case's
-    level.  ``progress(i, n)`` is called after each run.
+    level.  ``progress(i, n)`` is called after each run.  ``phase_locked``: a mesh node on every
+    analytic contact edge in every run (see the module docstring).
     """
     case = load_case(case)
+    if phase_locked:
+        case = case.with_fem(edge_nodes=True)
     if kind not in KINDS:
         from compare.errors import CaseError
 
@@ -268,12 +295,13 @@ def convergence(case: Case | str, levels: Sequence[int] = (0, 1, 2), kind: str =
     errors = {m: [float(r.metrics.get(m, np.nan)) for r in runs] for m in TRACKED}
     return assemble(case.name, kind, vals, par, errors, [paired_edges(r) for r in runs],
                     an.normal.zones, case.fem.order,
-                    [sum(r.timings.values()) for r in runs])
+                    [sum(r.timings.values()) for r in runs], case.fem.edge_nodes)
 
 
 def assemble(name: str, kind: str, values: Sequence, parameter: Sequence[float], errors: dict,
              fem_edges: Sequence[Sequence[float]], zones: Sequence[tuple[float, float]],
-             order: int = 1, timings: Sequence[float] = (), label: str = "",
+             order: int = 1, timings: Sequence[float] = (),
+             phase_locked: bool = False, label: str = "",
              ratio: float = 2.0) -> ConvergenceStudy:
     """The study from its runs' errors (metric -> list) and FE edges (per run, paired with the
     analytic ``zones`` as a1, b1, a2, ...): orders, ratios, stall, Richardson, verdict.
@@ -294,7 +322,7 @@ def assemble(name: str, kind: str, values: Sequence, parameter: Sequence[float],
         name, kind, tuple(values), tuple(parameter), errors, orders, local,
         {m: mt.error_ratios(e) for m, e in errors.items()}, expected, stall,
         tuple(map(tuple, edges)), tuple(an_edges), tuple(rich), reason, rich_err,
-        shift, not _failure(orders, errors, stall, kind, shift), tuple(timings))
+        shift, not _failure(orders, errors, stall, kind, shift), tuple(timings), phase_locked)
 
 
 def convergence_text(st: ConvergenceStudy) -> str:
@@ -302,6 +330,7 @@ def convergence_text(st: ConvergenceStudy) -> str:
     orders, the expected order and why, the verdict and the Richardson estimate."""
     head = {"h": "level", "penalty": "penalty", "domain": "size"}[st.kind]
     lines = [f"{st.case_name}: {st.kind}-convergence, {st.verdict()}",
+             f"  refinement: {phase_text(st.phase_locked)}",
              f"  {head:<22} " + " ".join(f"{v:>10g}" for v in st.values)]
     for m, vals in st.errors.items():
         if not st.applies(m):

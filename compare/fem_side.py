@@ -35,6 +35,15 @@ def kinks(case: Case) -> tuple[float, ...]:
     return tuple(sorted(pts))
 
 
+def mesh_kinks(case: Case, normal: NormalSolution) -> tuple[float, ...]:
+    """x that get a mesh node: the kinks and corners, and with ``fem.edge_nodes`` the analytic
+    contact edges at the full normal load (phase-locked refinement)."""
+    if not case.fem.edge_nodes:
+        return kinks(case)
+    edges = {float(e) for z in normal.zones for e in z}
+    return tuple(sorted(set(kinks(case)) | edges))
+
+
 def _merge(values: np.ndarray, decreasing: bool, Q0: float) -> tuple[float, ...]:
     v = np.sort(values)[::-1] if decreasing else np.sort(values)
     keep = [v[0]]
@@ -71,7 +80,8 @@ def mesh(case: Case):
     if case.fem.mesh_file:
         return fem.MeshFile(Path(case.fem.mesh_file), order=case.fem.order)
     return fem.MeshSpec(level=case.fem.level, order=case.fem.order,
-                        size_factor=case.fem.size_factor, growth=case.fem.growth)
+                        size_factor=case.fem.size_factor, growth=case.fem.growth,
+                        layout=case.fem.layout)
 
 
 def contact(case: Case) -> fem.ContactSettings:
@@ -84,4 +94,4 @@ def run_fem(case: Case, normal: NormalSolution) -> fem.FemHistory:
     path = load_path(case) if case.Q0 > 0 else fem.LoadPath(n_normal=case.fem.n_normal)
     return fem.solve_history(case.profile.h0, case.P, case.Q0, case.mu, case.E, case.nu,
                              M=case.M, mesh=mesh(case), contact=contact(case), increments=path,
-                             kinks=kinks(case), window=window(case, normal))
+                             kinks=mesh_kinks(case, normal), window=window(case, normal))

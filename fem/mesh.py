@@ -12,13 +12,14 @@ rigid loading plate) and ``bottom`` (body 2, y = -H, clamped).
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from skfem import MeshQuad
 
 from .errors import InputError
+from .rings import convex, ring_body
 from .settings import MeshFile, MeshSpec, validate_mesh_spec
 
 BOUNDARY_NAMES = ("contact_upper", "contact_lower", "top", "bottom")
@@ -136,24 +137,35 @@ def graded_gap(a: float, b: float, ha: float, hb: float, growth: float) -> np.nd
     return np.r_[left, [meet] if a < meet < b else [], right[::-1]]
 
 
-def window_axis(windows, kinks, spec: MeshSpec, W: float) -> np.ndarray:
-    """Node x: a uniform fine size in every window (+ margin; size relative to its own width),
-    nodes at kinks, graded across the gaps between windows and out to +-W (each graded run
-    starts at growth times the spacing it continues)."""
-    regions = fine_regions(windows, spec)
-    xc = 0.5 * (windows[0][0] + windows[-1][1])
-    fine = [uniform_axis(*r, kinks) for r in regions]
-    g = spec.growth
+def inner_axis(windows, kinks, spec: MeshSpec) -> np.ndarray:
+    """Node x from the first fine region's left end to the last one's right end: a uniform fine
+    size in every window (+ margin; size relative to its own width), nodes at the kinks inside
+    them, graded across the gaps between windows (each graded run starts at growth times the
+    spacing it continues)."""
+    fine = [uniform_axis(*r, kinks) for r in fine_regions(windows, spec)]
     parts = [fine[0]]
     for a, b in zip(fine[:-1], fine[1:], strict=True):
-        gap = graded_gap(a[-1], b[0], a[-1] - a[-2], b[1] - b[0], g)
+        gap = graded_gap(a[-1], b[0], a[-1] - a[-2], b[1] - b[0], spec.growth)
         parts += [gap, b[1:] if b[0] == a[-1] else b]
-    xl, xr = fine[0][0], fine[-1][-1]
-    left = xl - np.cumsum(graded_sizes((fine[0][1] - xl) * g, xl - (xc - W), g))
-    right = xr + np.cumsum(graded_sizes((xr - fine[-1][-2]) * g, xc + W - xr, g))
-    x = np.r_[left[::-1], np.concatenate(parts), right]
-    inside = [k for k in kinks if any(a < k < b for a, b, _ in regions)]
-    return snap_kinks(x, [k for k in kinks if k not in inside])
+    return np.concatenate(parts)
+
+
+def outer_kinks(windows, kinks, spec: MeshSpec) -> list[float]:
+    """The kinks outside every fine region (put on the nearest node after grading)."""
+    regions = fine_regions(windows, spec)
+    return [k for k in kinks if not any(a < k < b for a, b, _ in regions)]
+
+
+def window_axis(windows, kinks, spec: MeshSpec, W: float) -> np.ndarray:
+    """Node x of the tensor mesh: :func:`inner_axis`, graded out to +-W by growth, a node on
+    every kink."""
+    xc = 0.5 * (windows[0][0] + windows[-1][1])
+    inner, g = inner_axis(windows, kinks, spec), spec.growth
+    xl, xr = inner[0], inner[-1]
+    left = xl - np.cumsum(graded_sizes((inner[1] - xl) * g, xl - (xc - W), g))
+    right = xr + np.cumsum(graded_sizes((xr - inner[-2]) * g, xc + W - xr, g))
+    x = np.r_[left[::-1], inner, right]
+    return snap_kinks(x, outer_kinks(windows, kinks, spec))
 
 
 def snap_kinks(x: np.ndarray, kinks) -> np.ndarray:
@@ -187,29 +199,48 @@ def depth_axis(h: float, H: float, near: float, spec: MeshSpec) -> np.ndarray:
 
 
 def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
-    """Generate the graded tensor-product two-body mesh refined in one window (xmin, xmax) or
-    in several ((xmin, xmax), ...), e.g. one per expected contact zone."""
+    """Generate the two-body mesh refined in one window (xmin, xmax) or in several
+    ((xmin, xmax), ...), e.g. one per expected contact zone: graded rings (the default,
+    :mod:`fem.rings`) or the tensor product of an x and a depth axis (``layout='tensor'``)."""
     validate_mesh_spec(spec)
     windows = as_windows(window)
     span = windows[-1][1] - windows[0][0]
     W = spec.W if spec.W is not None else spec.size_factor * 0.5 * span
     H = spec.H if spec.H is not None else W
     regions = fine_regions(windows, spec)
-    half = max(
-        0.5 * (windows[0][0] + windows[-1][1]) - regions[0][0],
-        regions[-1][1] - 0.5 * (windows[0][0] + windows[-1][1]),
-    )
+    xc = 0.5 * (windows[0][0] + windows[-1][1])
+    half = max(xc - regions[0][0], regions[-1][1] - xc)
     if W <= half * 1.05:
         raise InputError(
             f"W={W:g} is not allowed: need W > {half * 1.05:g} "
             "(the window plus its margin must fit in the bodies)"
         )
-    x = window_axis(windows, kinks, spec, W)
     h = min(r[2] for r in regions)
+    if spec.layout == "rings":
+        rate = replace(spec, growth=near_growth(spec))  # the rings' h + (rate - 1) d everywhere
+        x = inner_axis(windows, kinks, rate)
+        p, t = ring_body(x, h, rate.growth, xc, W, H)
+        p = snap_interface_kinks(p, t, outer_kinks(windows, kinks, rate))
+        upper = MeshQuad(p, t)
+        lower = MeshQuad(p * np.array([[1.0], [-1.0]]), t[::-1].copy())
+        return from_bodies(upper, lower, "generated")
+    x = window_axis(windows, kinks, spec, W)
     depth = depth_axis(h, H, NEAR_DEPTH * max(b - a for a, b in windows), spec)
     lower = MeshQuad.init_tensor(x, np.r_[-depth[::-1], 0.0])
     upper = MeshQuad.init_tensor(x, np.r_[0.0, depth])
     return from_bodies(upper, lower, "generated")
+
+
+def snap_interface_kinks(p: np.ndarray, t: np.ndarray, kinks) -> np.ndarray:
+    """Move the interface node (y = 0) nearest to each kink onto it; refuse if an element
+    would turn inside out."""
+    on = np.flatnonzero(np.abs(p[1]) <= INTERFACE_ATOL)
+    row = on[np.argsort(p[0, on])]
+    p = p.copy()
+    p[0, row] = snap_kinks(p[0, row], kinks)
+    if not np.all(convex(p, t)):
+        raise InputError(f"kinks={list(kinks)} could not be placed on mesh nodes: refine the mesh")
+    return p
 
 
 def from_bodies(upper: MeshQuad, lower: MeshQuad, source: str) -> TwoBodyMesh:

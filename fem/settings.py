@@ -19,11 +19,22 @@ N_WINDOW_LEVEL0 = 48
 #: boundary the Hertz width does not depend on it beyond the far-field multipole truncation:
 #: level 3 moment width -0.0811 / -0.0872 / -0.0891 / -0.0888 % at 3 / 6 / 12.5 / 100.
 SIZE_FACTOR = 8.0
+#: Mesh layouts (MeshSpec.layout): graded rings around the windows (fem.rings) or the tensor
+#: product of an x axis and a depth axis.
+LAYOUTS = ("rings", "tensor")
+#: Default growth. The rings grow by ``1 + (growth - 1) 2**(-(level + 1) / 2)`` per layer
+#: (fem.mesh.near_growth: 1.1 / 1.07 / 1.05 at levels 1 / 2 / 3, the grading error then falls
+#: with h).  Accuracy / DOF study on cattaneo (edge / stick error of the width; rings with a
+#: transition at 3x the spacing): level 3, growth 1.4 / 1.2 / 1.1: 50k DOFs 1.2e-4 / 1.2e-4,
+#: 102k 1.1e-5 / 2.5e-5, 220k 5.3e-5 / 7.4e-5 (no better: the level's h limits it); level 2:
+#: 21k 4.6e-4 / 1.7e-4, 41k 1.4e-4 / 1.6e-4, 89k 4.4e-5 / 2.6e-4.  1.2 is the coarsest that
+#: reaches the tensor mesh's level-3 accuracy (7e-5 / 9e-5) at level 3.
+GROWTH = 1.2
 
 
 @dataclass(frozen=True)
 class MeshSpec:
-    """Graded tensor-product quad mesh of the two bodies.
+    """Graded quad mesh of the two bodies.
 
     level: refinement level; the fine element size in the window is
         ``(xmax - xmin) / (n_window * 2**level)``.
@@ -32,14 +43,19 @@ class MeshSpec:
         default ``size_factor`` times the window half-width.
     H: depth of each body (length); default = W.
     n_window: elements across the window at level 0.
-    growth: geometric growth ratio of element sizes away from the windows (> 1); in depth,
-        down to NEAR_DEPTH times the widest window, ``1 + (growth - 1) 2**(-(level+1)/2)``
+    growth: geometric growth ratio of element sizes away from the windows (> 1).  Rings: size
+        ``h + (g - 1) d`` at distance d in every direction with the level's rate
+        ``g = 1 + (growth - 1) 2**(-(level+1)/2)`` (fem.mesh.near_growth: the error of the
+        grading then falls with h).  Tensor: along x and in depth; in depth down to
+        NEAR_DEPTH times the widest window ``1 + (growth - 1) 2**(-(level+1)/2)``
         (fem.mesh.near_growth: the Q1 error of the graded near field then falls with h).
     margin: fine-mesh margin on each side of the window, fraction of its width.
     size_factor: default W, H as multiples of the window half-width.
     boundary: 'half-plane' (the outer boundary of each body moves as a half-plane loaded
         by the interface forces, fem.farfield: no finite-body error) or 'clamped' (body 1's
         top tied to the plate, body 2's bottom clamped, sides free).
+    layout: 'rings' (graded rings around the windows with conforming 3:1 transitions,
+        fem.rings) or 'tensor' (the tensor product of an x and a depth axis).
     """
 
     level: int = 1
@@ -47,10 +63,11 @@ class MeshSpec:
     W: float | None = None
     H: float | None = None
     n_window: int = N_WINDOW_LEVEL0
-    growth: float = 1.2
+    growth: float = GROWTH
     margin: float = 0.15
     size_factor: float = SIZE_FACTOR
     boundary: str = "half-plane"
+    layout: str = "rings"
 
 
 @dataclass(frozen=True)
@@ -163,7 +180,9 @@ def validate_mesh_spec(spec: MeshSpec) -> None:
         raise InputError(f"order={spec.order!r} is not allowed: need 1 or 2")
     if spec.level < -3 or spec.level > 6:
         raise InputError(f"level={spec.level!r} is not allowed: need -3 <= level <= 6")
-    if spec.growth <= 1.0 or spec.growth > 2.0:
+    if spec.layout not in LAYOUTS:
+        raise InputError(f"layout={spec.layout!r} is not allowed: need one of {list(LAYOUTS)}")
+    if not 1.0 < spec.growth <= 2.0:
         raise InputError(f"growth={spec.growth!r} is not allowed: need 1 < growth <= 2")
     for name in ("W", "H"):
         val = getattr(spec, name)

@@ -130,3 +130,52 @@ def test_words_not_literals_and_rows_the_case_lacks_are_left_out():
     stalled = study(errors(3, edge_error_max=[2.4e-3, 8.8e-4, 1.1e-3]), [1.0, 1.001, 1.002],
                     values=(0, 1, 2), par=H[:3])
     assert stalled.verdict().startswith("does not converge: stalls at level 2")
+
+
+def test_the_study_says_which_refinement_ran():
+    free = study(errors(), [1.0 + 0.3 * h for h in H])
+    locked = assemble("synthetic", "h", [0, 1, 2, 3], H, errors(), edges([1.0] * 4), ZONES,
+                      phase_locked=True)
+    assert not free.phase_locked and locked.phase_locked
+    assert "refinement: free phase" in convergence_text(free)
+    assert "refinement: phase-locked" in convergence_text(locked)
+    assert locked.summary()["phase_locked"] is True
+    assert locked.summary()["phase"].startswith("phase-locked")
+
+
+def test_phase_locked_cases_put_a_mesh_node_on_every_analytic_edge():
+    from compare.analytic_side import solve_case
+    from compare.cases import load_case
+    from compare.fem_side import kinks, mesh, mesh_kinks, window
+    from fem.mesh import build_mesh
+
+    case = load_case("two_cylinders_unequal").with_fem(level=-1)
+    normal = solve_case(case).normal
+    assert mesh_kinks(case, normal) == kinks(case)  # the profile's own kink only
+    locked = case.with_fem(edge_nodes=True)
+    edges_ = sorted(e for z in normal.zones for e in z)
+    assert mesh_kinks(locked, normal) == tuple(sorted({*edges_, *kinks(case)}))
+    tbm = build_mesh(mesh(locked), window(locked, normal), mesh_kinks(locked, normal))
+    x = tbm.bodies[0].p[0, tbm.nodes["contact_upper"]]
+    assert max(np.min(np.abs(x - e)) for e in edges_) < 1e-12 * max(map(abs, edges_))
+
+
+def test_converge_command_passes_phase_locked_and_prints_which_ran(monkeypatch, capsys):
+    import sys
+
+    from compare.cli import main
+
+    conv = sys.modules["compare.convergence"]  # the package exports a function of that name
+
+    seen = {}
+
+    def fake(case, levels, kind, values, progress, phase_locked):
+        seen["phase_locked"] = phase_locked
+        return assemble("hertz", "h", [0, 1, 2, 3], H, errors(), edges([1.0] * 4), ZONES,
+                        phase_locked=phase_locked)
+
+    monkeypatch.setattr(conv, "convergence", fake)
+    for flag, words in (([], "free phase"), (["--phase-locked"], "phase-locked")):
+        assert main(["converge", "hertz", *flag]) == 0
+        assert seen["phase_locked"] == bool(flag)
+        assert f"refinement: {words}" in capsys.readouterr().out

@@ -1,6 +1,7 @@
-"""meshes/: the parametric .geo sources, the stored level-0 meshes and the README table agree
-with each other and with fem's generator (no gmsh needed: meshes/generate.py checks the meshes
-it makes from the .geo against the same generator)."""
+"""meshes/: the parametric .geo sources (tensor layout), the stored level-0 meshes (the default
+ring layout) and the README table agree with each other and with fem's generator (no gmsh
+needed: meshes/generate.py checks the meshes it makes from the .geo against the same
+generator)."""
 
 import importlib.util
 import re
@@ -18,7 +19,9 @@ E, NU, R, P = 1.0, 0.3, 100.0, 0.01
 A_HERTZ = np.sqrt(2 * 4 * (1 - NU**2) / E * P * R / np.pi)
 #: gmsh puts a block corner exactly on each kink (measured offset 0.0).
 KINK_ATOL = 1e-12
-ROW = re.compile(r"^\| ((\w+)_L(\d+)) \|.*\|$", re.MULTILINE)
+ROW = re.compile(r"^\| ((\w+?)(_tensor)?_L(\d+)) \|.*\|$", re.MULTILINE)
+#: fem writes its .msh node coordinates to 16 significant digits (measured offset 0).
+WRITE_RTOL = 1e-15
 
 
 def load_generate():
@@ -33,13 +36,14 @@ gen = load_generate()
 
 
 def readme_rows() -> dict:
-    """README table rows by mesh name -> (case, level, row text)."""
+    """README table rows by mesh name -> (case, level, layout, row text)."""
     text = (MESHES / "README.md").read_text()
-    return {m[1]: (m[2], int(m[3]), m[0]) for m in ROW.finditer(text)}
+    return {m[1]: (m[2], int(m[4]), "tensor" if m[3] else "rings", m[0])
+            for m in ROW.finditer(text)}
 
 
 def test_geo_parameters_are_the_fem_defaults():
-    spec = fem.MeshSpec()
+    spec = fem.MeshSpec(layout="tensor")
     for case in gen.CASES:
         p = gen.geo_parameters(case)
         assert p["level"] == 0
@@ -59,25 +63,26 @@ def test_geo_parameters_are_the_fem_defaults():
 
 def test_readme_table_is_the_generator_at_the_geo_parameters():
     rows = readme_rows()
-    assert sorted(rows) == sorted(f"{c}_L{lv}" for c in gen.CASES for lv in gen.LEVELS)
-    for name, (case, level, row) in rows.items():
+    assert sorted(rows) == sorted(gen.mesh_name(c, lv, layout) for c in gen.CASES
+                                  for lv in gen.LEVELS for layout in ("rings", "tensor"))
+    for name, (case, level, layout, row) in rows.items():
         p = gen.geo_parameters(case)
-        mesh = gen.reference_mesh(case, level)
+        mesh = gen.reference_mesh(case, level, layout)
         assert gen.table_row(name, (p["xmin"], p["xmax"]), mesh) == row
 
 
 @pytest.mark.parametrize("case", ["hertz", "double_wedge"])
-def test_stored_mesh_is_the_geo_grid(case):
+def test_stored_mesh_is_the_default_ring_grid(case):
     path = MESHES / f"{case}_L0.msh"
     if not path.is_file():
         pytest.fail(f"stored mesh {path} missing: run python meshes/generate.py 0")
     mesh = read_mesh(fem.MeshFile(path))
     p = gen.geo_parameters(case)
-    row = readme_rows()[f"{case}_L0"][2]
+    row = readme_rows()[f"{case}_L0"][3]
     assert gen.table_row(f"{case}_L0", (p["xmin"], p["xmax"]), mesh) == row
-    offset = gen.grid_offset(mesh, gen.reference_mesh(case, 0))
-    print(f"{case}_L0: nodes {offset:.2e} W off fem's generator")
-    assert offset <= gen.GRID_RTOL
+    offset = gen.grid_offset(mesh, gen.reference_mesh(case, 0, "rings"))
+    print(f"{case}_L0: nodes {offset:.2e} W off fem's ring generator")
+    assert offset <= WRITE_RTOL
     for body, name in ((0, "contact_upper"), (1, "contact_lower")):
         x = mesh.bodies[body].p[0, mesh.nodes[name]]
         assert all(np.min(np.abs(x - k)) < KINK_ATOL for k in p["kinks"])
