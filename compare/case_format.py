@@ -21,7 +21,7 @@ from analytic.errors import InputError as AnalyticInputError
 from analytic.profiles import Profile
 from compare.errors import CaseError
 from compare.tolerances import DEFAULTS as DEFAULT_TOLERANCES
-from fem.settings import GROWTH, LAYOUTS
+from fem.settings import DEFAULT_LAYOUT, GROWTH, LAYOUTS
 
 REQUIRED = object()  # marker: key without a default
 
@@ -69,7 +69,7 @@ class FemSettings:
     twice as many) added to the sample points; size_factor: body half-width / window
     half-width; window_margin: the refined window is the analytic contact span widened by
     this fraction of the span on each side; growth: element size ratio away from the window
-    (fem.MeshSpec.growth); layout: 'rings' (graded rings, the default) or 'tensor' (the tensor
+    (fem.MeshSpec.growth); layout: 'rings' (graded rings) or 'tensor' (the default: the tensor
     product mesh); edge_nodes: put a mesh node
     on every analytic contact edge of the full normal load (the phase-locked refinement of
     ``converge --phase-locked``: the edge error then no longer swings with where the edge falls
@@ -86,7 +86,7 @@ class FemSettings:
     size_factor: float = 8.0
     window_margin: float = 0.05
     growth: float = GROWTH
-    layout: str = "rings"
+    layout: str = DEFAULT_LAYOUT
     edge_nodes: bool = False
 
 

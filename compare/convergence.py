@@ -6,7 +6,7 @@ least-squares slopes of ``log(error)`` against ``log(parameter)``:
 - ``kind="h"``: parameter = finest interface element length ``h``.  The graded far field is
   refined too, otherwise its fixed relative coarseness leaves a level-independent error
   (measured on the tensor mesh: ~0.1 % of the Hertz width, pressure order dropping to ~0.4):
-  the default ring mesh does it by itself (its rate ``1 + (growth - 1) 2^(-(level+1)/2)``
+  the ring mesh does it by itself (its rate ``1 + (growth - 1) 2^(-(level+1)/2)``
   falls with the level, fem.mesh.near_growth), the tensor mesh by :func:`refined_growth`
   (growth -> 1).  Expected orders for linear
   (Q4) elements: pressure L2 error ~ h^1 (the penalty error ``p/k_n`` with ``k_n ~ E/h`` is

@@ -200,8 +200,9 @@ def depth_axis(h: float, H: float, near: float, spec: MeshSpec) -> np.ndarray:
 
 def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
     """Generate the two-body mesh refined in one window (xmin, xmax) or in several
-    ((xmin, xmax), ...), e.g. one per expected contact zone: graded rings (the default,
-    :mod:`fem.rings`) or the tensor product of an x and a depth axis (``layout='tensor'``)."""
+    ((xmin, xmax), ...), e.g. one per expected contact zone: graded rings (``layout="rings"``,
+    :mod:`fem.rings`) or the tensor product of an x and a depth axis (the default,
+    ``layout="tensor"``)."""
     validate_mesh_spec(spec)
     windows = as_windows(window)
     span = windows[-1][1] - windows[0][0]

@@ -2,7 +2,7 @@
 
 ``<case>.geo`` sets the window and the kinks of one case.  Two layouts:
 
-- rings (fem's default, ``fem.MeshSpec(layout="rings")``): ``<case>_L<level>.msh`` written by
+- rings (``fem.MeshSpec(layout="rings")``): ``<case>_L<level>.msh`` written by
   fem's own generator (``fem.mesh.write_msh``, gmsh 2.2 format) with the window and kinks of
   ``<case>.geo``; no gmsh needed.
 - tensor (``layout="tensor"``, growth 1.2): ``two_bodies.inc`` builds the two bodies as
@@ -63,9 +63,9 @@ def geo_parameters(case: str) -> dict:
 
 def mesh_spec(params: dict, level: int, layout: str = "tensor") -> fem.MeshSpec:
     """The fem.MeshSpec of ``layout`` at ``level``: the tensor layout with the .geo parameters,
-    the ring layout with fem's defaults."""
+    the ring layout with fem's default parameters."""
     if layout == "rings":
-        return fem.MeshSpec(level=level)
+        return fem.MeshSpec(level=level, layout="rings")
     return fem.MeshSpec(
         level=level,
         n_window=int(params["n_window"]),

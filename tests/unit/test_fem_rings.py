@@ -33,7 +33,7 @@ def box_edges(m, W, H):
 @pytest.mark.parametrize("level", [-1, 0, 2])
 @pytest.mark.parametrize("shape", [{}, {"W": 40.0, "H": 9.0}, {"W": 3.0, "H": 30.0}])
 def test_conforming_convex_and_exactly_the_box(level, shape):
-    spec = fem.MeshSpec(level=level, **shape)
+    spec = fem.MeshSpec(level=level, layout="rings", **shape)
     m = build_mesh(spec, HERTZ)
     W = shape.get("W", spec.size_factor * 0.5 * (HERTZ[1] - HERTZ[0]))
     H = shape.get("H", W)
@@ -48,7 +48,7 @@ def test_conforming_convex_and_exactly_the_box(level, shape):
 
 @pytest.mark.parametrize("level", [0, 2])
 def test_element_size_grows_with_distance_in_every_direction(level):
-    spec = fem.MeshSpec(level=level)
+    spec = fem.MeshSpec(level=level, layout="rings")
     m = build_mesh(spec, HERTZ)
     (xl, xr, h), = fine_regions(as_windows(HERTZ), spec)
     p, t = m.bodies[0].p, m.bodies[0].t
@@ -64,7 +64,7 @@ def test_element_size_grows_with_distance_in_every_direction(level):
 
 
 def test_interface_row_is_graded_smoothly():
-    spec = fem.MeshSpec(level=1)
+    spec = fem.MeshSpec(level=1, layout="rings")
     m = build_mesh(spec, HERTZ)
     x = np.sort(m.bodies[0].p[0, m.nodes["contact_upper"]])
     d = np.diff(x)
@@ -86,12 +86,12 @@ LEVEL0_NODES = 1.03
 
 
 def test_fewer_dofs_than_the_tensor_layout():
-    rings = build_mesh(fem.MeshSpec(level=0), HERTZ)
+    rings = build_mesh(fem.MeshSpec(level=0, layout="rings"), HERTZ)
     tensor = build_mesh(fem.MeshSpec(level=0, layout="tensor"), HERTZ)
     n = [sum(b.p.shape[1] for b in mesh.bodies) for mesh in (rings, tensor)]
     assert n[0] < LEVEL0_NODES * n[1]
     for level in (1, 2, 3):
-        rings = build_mesh(fem.MeshSpec(level=level), HERTZ)
+        rings = build_mesh(fem.MeshSpec(level=level, layout="rings"), HERTZ)
         tensor = build_mesh(fem.MeshSpec(level=level, layout="tensor"), HERTZ)
         n = [sum(b.p.shape[1] for b in mesh.bodies) for mesh in (rings, tensor)]
         assert n[0] < n[1], (level, n)
@@ -101,7 +101,7 @@ def test_fewer_dofs_than_the_tensor_layout():
 def test_zone_aware_windows_and_kinks_outside_them():
     windows = ((-2.55, -1.45), (0.9, 1.1))
     kinks = (-2.0, 0.0, 5.0)
-    m = build_mesh(fem.MeshSpec(level=0), windows, kinks)
+    m = build_mesh(fem.MeshSpec(level=0, layout="rings"), windows, kinks)
     x = np.sort(m.bodies[0].p[0, m.nodes["contact_upper"]])
     for lo, hi in windows:
         assert np.count_nonzero((x > lo) & (x < hi)) + 1 >= fem.MeshSpec().n_window

@@ -42,7 +42,7 @@ def histories():
     gap = lambda x: x**2 / (2 * R)  # noqa: E731
     return tuple(
         fem.solve_history(gap, P, 0.5 * MU * P, MU, E, NU, mesh=mesh, **kw)
-        for mesh in (fem.MeshFile(path), fem.MeshSpec(level=0))
+        for mesh in (fem.MeshFile(path), fem.MeshSpec(level=0, layout="rings"))
     )
 
 
