@@ -357,8 +357,9 @@ def increments(frd: Frd, g: Grid, mu: float) -> list[CcxStep]:
 
     P, Q, M: from the reactions F of body 2's bottom (P = sum F_y, Q = -sum F_x: the bottom
     holds body 2 against the load on body 1; M = sum (x F_y - y F_x), the moment balancing
-    the pressure's -int x p dx on body 2 about (0, 0), the shear at y = 0 having no arm).  p = CPRESS where > 0; q = CCX_SHEAR_SIGN * CSHEAR1 on contact
-    nodes; status open / stick / slip (|q| >= mu p (1 - SLIP_RTOL)).
+    the pressure's -int x p dx on body 2 about (0, 0), the shear at y = 0 having no arm).
+    p = CPRESS where > 0; q = CCX_SHEAR_SIGN * CSHEAR1 on contact nodes; status open / stick /
+    slip (|q| >= mu p (1 - SLIP_RTOL)).
     """
     copies = expanded_copies(frd, g.elements)
     by_inc: dict = {}
