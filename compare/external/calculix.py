@@ -7,17 +7,17 @@ calculix-ccx``), reads ``<case>.frd``, writes the exchange format into ``OUT`` a
 Model (the case's problem, ``docs/cases.md``): two plane-strain bodies of linear CPE4 quads
 on one tensor-product grid (element size ``h`` over the analytic contact span widened by
 :data:`MARGIN` on each side, graded by :data:`GROWTH` out to the half-width and depth
-:data:`SIZE_FACTOR` x the span's half-width), body 1's nodes lifted by ``h0(x) (1 - y/H)`` so
-that its bottom is the profile; bottom of body 2 clamped; the top of body 1 rigid (every top
-node tied to a reference node by ``*EQUATION``), its rotation locked; load control on the
-reference node (``*CLOAD``): stage 1 P with the top's x fixed, stage 2 Q from 0 to Q0, stage 3
-Q from Q0 to -Q0.  Contact: node-to-surface ``*CONTACT PAIR`` (body 1 slave, body 2 master),
-linear penalty ``*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR``, Coulomb ``*FRICTION``.
-Friction is ~0 in stage 1 (:data:`MU_STAGE1`) and set to mu by ``*CHANGE FRICTION`` at stage 2:
-with mu active from the first increment ccx 2.20 did not get through stage 1; for elastically
-similar bodies (the library's) P alone causes no slip, so nothing is lost.  Automatic
-incrementation, every increment written (``*NODE FILE, OUTPUT=3D``: RF, of which the
-clamped bottom is read; ``*CONTACT FILE``: CSTR, CDIS).
+:data:`SIZE_FACTOR` x the fine zone's half-width), body 1's nodes lifted by
+``h0(x) (1 - y/H)`` so that its bottom is the profile; bottom of body 2 clamped; the top of
+body 1 rigid (every top node tied to a reference node by ``*EQUATION``), its rotation locked;
+load control on the reference node (``*CLOAD``): stage 1 P with the top's x fixed, stage 2 Q
+from 0 to Q0, stage 3 Q from Q0 to -Q0.  Contact: node-to-surface ``*CONTACT PAIR`` (body 1
+slave, body 2 master), linear penalty ``*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR``,
+Coulomb ``*FRICTION``.  Friction is ~0 in stage 1 (:data:`MU_STAGE1`) and set to mu by
+``*CHANGE FRICTION`` at stage 2: with mu active from the first increment ccx 2.20 did not get
+through stage 1; for elastically similar bodies (the library's) P alone causes no slip, so
+nothing is lost.  Automatic incrementation, every increment written (``*NODE FILE,
+OUTPUT=3D``: RF, of which the clamped bottom is read; ``*CONTACT FILE``: CSTR, CDIS).
 
 Reading (``.frd``): ccx expands CPE4 into one layer of C3D8 bricks and writes node-to-surface
 contact results on the expanded nodes; each slave node is mapped to its two copies through
@@ -43,7 +43,14 @@ from compare.analytic_side import solve_normal_case
 from compare.cases import Case, load_case
 from compare.errors import CaseError
 from compare.external.csvio import MANIFEST, step_name
-from compare.external.driver import DriverError, check_landed, parser, print_verdicts, run_cli
+from compare.external.driver import (
+    BODY_SIZE_FACTOR,
+    DriverError,
+    check_landed,
+    parser,
+    print_verdicts,
+    run_cli,
+)
 
 #: Elements across the (widened) contact span at level 0; level L has 2**L times as many.
 N_SPAN = 40
@@ -52,7 +59,7 @@ MARGIN = 0.15
 #: Geometric growth of the element size away from the fine zone (x and depth).
 GROWTH = 1.25
 #: Half-width and depth of each body, in multiples of the fine zone's half-width.
-SIZE_FACTOR = 8.0
+SIZE_FACTOR = BODY_SIZE_FACTOR
 #: Linear penalty slope K = PENALTY_FACTOR * E / h (pressure per overclosure): penetration
 #: ~ p h / (100 E), like our own FE's default penalty.
 PENALTY_FACTOR = 100.0

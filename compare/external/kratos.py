@@ -3,7 +3,8 @@
 Needs the optional extra ``[kratos]`` (``pip install ".[kratos]"``); nothing else imports it.
 
 Model: the two plane-strain bodies of our own FE mesh (``fem.mesh.build_mesh`` at the chosen
-level, so both codes use the same nodes), with body 1's nodes lifted by ``h0(x) (1 - y/H)``
+level with bodies ``driver.BODY_SIZE_FACTOR`` times the refined zone's half-width, so both
+codes use the same nodes), with body 1's nodes lifted by ``h0(x) (1 - y/H)``
 so that its bottom *is* the profile; linear elastic small-displacement quads; frictional
 augmented-Lagrangian mortar contact (``ALMContactFrictional``, ``alm_contact_process`` with
 ``contact_type = "Frictional"``; body 1's interface is the slave side); bottom of body 2
@@ -44,7 +45,14 @@ from compare.cases import Case, load_case
 from compare.errors import CaseError
 from compare.external import write_result
 from compare.external.csvio import MANIFEST, step_name
-from compare.external.driver import DriverError, check_landed, parser, print_verdicts, run_cli
+from compare.external.driver import (
+    BODY_SIZE_FACTOR,
+    DriverError,
+    check_landed,
+    parser,
+    print_verdicts,
+    run_cli,
+)
 from compare.fem_side import kinks, mesh, run_fem, window
 
 #: Kratos' AUGMENTED_NORMAL_CONTACT_PRESSURE is negative in compression (sum p w = -P).
@@ -89,7 +97,7 @@ def geometry(case: Case, level: int) -> Geometry:
     from fem.mesh import build_mesh
 
     normal = solve_normal_case(case)
-    tbm = build_mesh(mesh(case.with_fem(level=level)), window(case, normal), kinks(case))
+    tbm = build_mesh(mesh(_fe_case(case, level)), window(case, normal), kinks(case))
     upper, lower = tbm.bodies
     H = float(upper.p[1].max())
     p1 = upper.p.copy()
@@ -206,10 +214,15 @@ def _fix(part: str) -> dict:
 BOUNDARY = "clamped"
 
 
+def _fe_case(case: Case, level: int) -> Case:
+    """The case with our FE mesh of the Kratos model: ``level``, bodies BODY_SIZE_FACTOR wide."""
+    return case.with_fem(level=level, size_factor=BODY_SIZE_FACTOR)
+
+
 def targets(case: Case, level: int):
     """Our own FE history on the same mesh with the same boundary conditions (clamped
     bottom, rigid top): the top displacements (u, v) of every step."""
-    hist = run_fem(case.with_fem(level=level), solve_normal_case(case), boundary=BOUNDARY)
+    hist = run_fem(_fe_case(case, level), solve_normal_case(case), boundary=BOUNDARY)
     return hist, [(s.stage, float(s.plate[0]), float(s.plate[1])) for s in hist.steps]
 
 
