@@ -13,7 +13,8 @@ displacement: every step prescribes the top displacement (u, v) that our own FE 
 that step's loads (stage 1: P up to P0, stage 2: Q up to Q0, stage 3: Q down to -Q0) in the
 model with the *same* boundary conditions (``boundary = 'clamped'``: bottom clamped, rigid
 top; the clamped model needs 0.942 times the v and 1.383 times the u of the default
-half-plane far field, whose targets put Kratos 7.5 % over P and 26 % under Q0).  The loads actually reached are measured from the top reactions and
+half-plane far field, whose targets put Kratos 7.5 % over P and 26 % under Q0).  The loads
+actually reached are measured from the top reactions and
 must land within ``driver.LANDING_RTOL`` (1 %) of the case's P and Q0
 (:func:`compare.external.driver.check_landed`); ``compare.verify`` solves the analytic side
 at the measured loads.
