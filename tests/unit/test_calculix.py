@@ -180,3 +180,13 @@ def test_cli_errors_are_one_line(tmp_path, capsys, monkeypatch):
     assert ccx.main(["hertz", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "apt-get install calculix-ccx" in err and err.count("\n") == 1
+
+
+def test_sharp_punch_contact_only_where_the_gap_is_finite():
+    """Beyond a sharp corner h0 = inf: those faces are no contact candidates and body 1 keeps
+    the corner's height there (no nan in the deck)."""
+    case = load_case("sharp_punch")
+    g = ccx.grid(case, 0, **TINY)
+    x = g.xy[g.slave_nodes, 0]
+    assert np.all(np.isfinite(case.profile.h0(x))) and np.all(np.isfinite(g.xy))
+    assert "nan" not in ccx.deck(case, g).lower()
