@@ -33,24 +33,30 @@ class DriverError(CaseError):
     """The external code failed, or its run did not land on the case's loads."""
 
 
-def check_landed(code: str, case, loads: Sequence[tuple[int, float, float]]) -> None:
-    """``loads``: (stage, P, Q) of every step, in our convention.  Raises DriverError unless
-    the last stage-1 P and the last stage-2 Q are within LANDING_RTOL of the case's P, Q0."""
+def landing_error(code: str, case, loads: Sequence[tuple[int, float, float]],
+                  rtol: float = LANDING_RTOL) -> str | None:
+    """``loads``: (stage, P, Q) of every step, in our convention.  None when the last stage-1 P
+    and the last stage-2 Q are within ``rtol`` of the case's P and Q0, else why not."""
     s1 = [(P, Q) for st, P, Q in loads if st == 1]
     s2 = [(P, Q) for st, P, Q in loads if st == 2]
     if not s1:
-        raise DriverError(f"{code}: the run has no stage-1 step")
+        return f"{code}: the run has no stage-1 step"
     P0 = s1[-1][0]
-    if abs(P0 - case.P) > LANDING_RTOL * case.P:
-        raise DriverError(f"{code}: P = {P0:.6g} at the end of stage 1 misses the case's "
-                          f"P = {case.P:.6g} by {abs(P0 / case.P - 1):.2%} (allowed "
-                          f"{LANDING_RTOL:.0%})")
-    if case.Q0 > 0:
-        Q0 = s2[-1][1] if s2 else 0.0
-        if abs(Q0 - case.Q0) > LANDING_RTOL * case.Q0:
-            raise DriverError(f"{code}: Q0 = {Q0:.6g} at the end of stage 2 misses the case's "
-                              f"Q0 = {case.Q0:.6g} by {abs(Q0 / case.Q0 - 1):.2%} (allowed "
-                              f"{LANDING_RTOL:.0%})")
+    if abs(P0 - case.P) > rtol * case.P:
+        return (f"{code}: P = {P0:.6g} at the end of stage 1 misses the case's P = "
+                f"{case.P:.6g} by {abs(P0 / case.P - 1):.2%} (allowed {rtol:.1%})")
+    Q0 = s2[-1][1] if s2 else 0.0
+    if case.Q0 > 0 and abs(Q0 - case.Q0) > rtol * case.Q0:
+        return (f"{code}: Q0 = {Q0:.6g} at the end of stage 2 misses the case's Q0 = "
+                f"{case.Q0:.6g} by {abs(Q0 / case.Q0 - 1):.2%} (allowed {rtol:.1%})")
+    return None
+
+
+def check_landed(code: str, case, loads: Sequence[tuple[int, float, float]]) -> None:
+    """Raise DriverError with :func:`landing_error`'s reason when the run missed the loads."""
+    why = landing_error(code, case, loads)
+    if why:
+        raise DriverError(why)
 
 
 def parser(prog: str, description: str) -> argparse.ArgumentParser:

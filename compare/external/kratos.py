@@ -48,8 +48,10 @@ from compare.external import write_result
 from compare.external.csvio import MANIFEST, step_name
 from compare.external.driver import (
     BODY_SIZE_FACTOR,
+    LANDING_RTOL,
     DriverError,
     check_landed,
+    landing_error,
     parser,
     print_verdicts,
     run_cli,
@@ -213,6 +215,10 @@ def _fix(part: str) -> dict:
 
 #: The boundary conditions of the Kratos model, in fem's terms (the FE targets use the same).
 BOUNDARY = "clamped"
+#: A run that misses the case's P or Q0 by more than this fraction is repeated once with the
+#: targets corrected on its reactions (:func:`corrected`), so that it lands well inside the
+#: 1 % landing tolerance (measured, Cattaneo level 0 with 32-wide bodies: Q0 -0.8 % before).
+RETARGET_RTOL = 0.5 * LANDING_RTOL
 
 
 def _fe_case(case: Case, level: int) -> Case:
@@ -225,6 +231,29 @@ def targets(case: Case, level: int):
     bottom, rigid top): the top displacements (u, v) of every step."""
     hist = run_fem(_fe_case(case, level), solve_normal_case(case), boundary=BOUNDARY)
     return hist, [(s.stage, float(s.plate[0]), float(s.plate[1])) for s in hist.steps]
+
+
+def corrected(path: list, fe_loads: list, measured: list) -> list:
+    """The targets after one secant step on the measured loads.
+
+    ``path``: (stage, u, v) per step; ``fe_loads``, ``measured``: (P, Q) per step of our FE
+    (the loads the targets are meant to reach) and of Kratos.  v moves by
+    (P_fe - P_kratos) / (dP/dv) and u by (Q_fe - Q_kratos) / (dQ/du), Kratos' own secant
+    slopes along the path (stage 1: from the step before, or from (0, 0); stages 2-3: v with
+    the last stage-1 slope, u from the step before).  Exact for a response linear between
+    steps; Kratos differs from our FE by a fraction of a percent, so one step suffices.
+    """
+    out, sP, prev = [], None, (0.0, 0.0, 0.0, 0.0)  # (u, v, P, Q) of Kratos' step before
+    for (stage, u, v), (P, Q), (Pm, Qm) in zip(path, fe_loads, measured, strict=True):
+        pu, pv, pP, pQ = prev
+        if stage == 1 and v != pv:
+            sP = (Pm - pP) / (v - pv)
+        sQ = (Qm - pQ) / (u - pu) if stage > 1 and u != pu else None
+        dv = (P - Pm) / sP if sP else 0.0
+        du = (Q - Qm) / sQ if sQ else 0.0
+        out.append((stage, u + du, v + dv))
+        prev = (u, v, Pm, Qm)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -303,20 +332,33 @@ def run(case: Case | str, out: str | Path, level: int = 0) -> Path:
     work.mkdir(parents=True, exist_ok=True)
     (work / f"{case.name}.mdpa").write_text(mdpa_text(g))
     (work / f"{case.name}_materials.json").write_text(json.dumps(materials(case)))
-    cwd = os.getcwd()
-    try:
-        rows, seconds, n_dofs = _run_kratos(work, case.name, g, path)
-    finally:
-        os.chdir(cwd)
-    check_landed("Kratos", case, [(st, d["P"], d["Q"]) for st, d in rows])
-    x = g.xy[g.slave, 0]
     note = (f"top displacements of multicontact fem with a {BOUNDARY} boundary "
             f"({hist.n_dofs} dofs, {t_fe:.1f} s)")
-    return write_steps(out, case.name, x, rows, n_dofs, seconds, note)
+    rows, seconds, n_dofs = _run_kratos(work, case.name, g, path)
+    if landing_error("Kratos", case, _loads(rows), RETARGET_RTOL):
+        path = corrected(path, [(s.P, s.Q) for s in hist.steps],
+                         [(d["P"], d["Q"]) for _, d in rows])
+        rows, again, n_dofs = _run_kratos(work, case.name, g, path)
+        seconds += again
+        note += "; corrected once on Kratos' reactions (two Kratos runs)"
+    check_landed("Kratos", case, _loads(rows))
+    return write_steps(out, case.name, g.xy[g.slave, 0], rows, n_dofs, seconds, note)
+
+
+def _loads(rows: list) -> list:
+    return [(stage, d["P"], d["Q"]) for stage, d in rows]
 
 
 def _run_kratos(work: Path, name: str, g: Geometry, path) -> tuple[list, float, int]:
     """Solve every step; (stage, measurements) rows, wall seconds, equation-system size."""
+    cwd = os.getcwd()
+    try:
+        return _solve_path(work, name, g, path)
+    finally:
+        os.chdir(cwd)
+
+
+def _solve_path(work: Path, name: str, g: Geometry, path) -> tuple[list, float, int]:
     t0 = time.perf_counter()
     analysis = _analysis(work, parameters(name, len(path)))
     mp = analysis._GetSolver().GetComputingModelPart().GetRootModelPart()

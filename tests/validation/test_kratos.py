@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from compare.cases import load_case
@@ -78,3 +79,22 @@ def test_kratos_driver_lands_on_the_case(tmp_path):
     assert res.case.Q0 == pytest.approx(case.Q0, rel=LANDING_RTOL)
     failed = {c.name for c in res.checks if not c.passed}
     assert "edge" not in failed and "pressure" not in failed and "shear" in failed
+
+
+def test_targets_corrected_once_on_the_reactions():
+    """One secant step on the measured loads: exact when Kratos' response is our FE's up to
+    a linear stiffness ratio (stiffer in v by 1 %, softer in u by 3 %)."""
+    v = -np.linspace(0.1, 1.0, 10)
+    P = 100 * np.linspace(0.1, 1.0, 10)          # P = -100 v along stage 1
+    u = np.r_[np.zeros(10), 0.2, 0.4, 0.6, 0.2, -0.6]
+    Q = np.r_[np.zeros(10), 6.0, 12.0, 18.0, 6.0, -18.0]   # Q = 30 u in stages 2-3
+    stage = [1] * 10 + [2, 2, 2, 3, 3]
+    vv = np.r_[v, [v[-1]] * 5]
+    path = list(zip(stage, u, vv, strict=True))
+    fe = list(zip(np.r_[P, [100.0] * 5], Q, strict=True))
+    measured = [(-101 * b, 0.97 * 30 * a) for _, a, b in path]
+    new = kratos.corrected(path, fe, measured)
+    assert [s for s, _, _ in new] == stage
+    got = [(-101 * b, 0.97 * 30 * a) for _, a, b in new]
+    for (Pn, Qn), (Pf, Qf) in zip(got, fe, strict=True):
+        assert Pn == pytest.approx(Pf, rel=1e-9) and Qn == pytest.approx(Qf, rel=1e-9, abs=1e-9)
