@@ -22,10 +22,10 @@ OUTPUT=3D``: RF, of which the clamped bottom is read; ``*CONTACT FILE``: CSTR, C
 Reading (``.frd``): ccx expands CPE4 into one layer of C3D8 bricks and writes node-to-surface
 contact results on the expanded nodes; each slave node is mapped to its two copies through
 the element connectivity and the two values averaged.  CPRESS (> 0 compressive; open nodes
-carry -sigma_inf) gives p; CSHEAR1 is the shear exerted by the slave (body 1) on the master,
-so q on body 1 is -CSHEAR1 in the master's tangent direction (declared as ``shear_sign``);
-status: open where CPRESS <= 0, slip where |q| >= mu p (1 - :data:`SLIP_RTOL`), stick
-otherwise.  P and Q are the reactions of body 2's bottom.
+carry -sigma_inf) gives p; q = CSHEAR1 (:data:`CCX_SHEAR_SIGN`, measured: it integrates to
++Q); status: open where CPRESS <= 0, slip where |q| >= mu p (1 - :data:`SLIP_RTOL`) and the
+node moved in the increment (CSLIP1 by more than :data:`SLIP_MOVE_ATOL` h), stick otherwise.
+P, Q and M come from the reactions of body 2's bottom.  Values are written in our convention.
 """
 
 from __future__ import annotations
@@ -70,8 +70,12 @@ STICK_SLOPE = 1.0
 SIGMA_INF = 1e-4
 #: Friction coefficient of stage 1 (ccx needs mu > 0 in a frictional pair; ~0 = frictionless).
 MU_STAGE1 = 1e-4
-#: A contact node slips when |q| >= mu p (1 - SLIP_RTOL) (ccx writes no stick/slip flag).
+#: A contact node slips when |q| >= mu p (1 - SLIP_RTOL) (ccx writes no stick/slip flag) ...
 SLIP_RTOL = 1e-3
+#: ... and its relative tangential displacement CSLIP1 moved by more than this fraction of h
+#: in the increment (measured, Cattaneo levels 0-1: sticking nodes <= 5e-6 h, nodes on the cone
+#: right after the reversal <= 1.4e-8 h, slipping nodes >= 6e-6 h per increment).
+SLIP_MOVE_ATOL = 1e-6
 #: Largest increment of each step (fraction of the step): at least 10 outputs per stage.
 MAX_INCREMENT = 0.1
 #: q on body 1 = CCX_SHEAR_SIGN * CSHEAR1 (measured, Cattaneo level 0: sum CSHEAR1 w = 13.978
@@ -366,7 +370,10 @@ def increments(frd: Frd, g: Grid, mu: float) -> list[CcxStep]:
     holds body 2 against the load on body 1; M = sum (x F_y - y F_x), the moment balancing
     the pressure's -int x p dx on body 2 about (0, 0), the shear at y = 0 having no arm).
     p = CPRESS where > 0; q = CCX_SHEAR_SIGN * CSHEAR1 on contact nodes; status open / stick /
-    slip (|q| >= mu p (1 - SLIP_RTOL)).
+    slip: slip where q is on the friction cone (|q| >= mu p (1 - SLIP_RTOL)) *and* the node
+    moved relative to the master in the increment (CSLIP1 changed by more than
+    SLIP_MOVE_ATOL h): right after the stage-3 reversal the nodes are still on the cone but
+    stick.
     """
     copies = expanded_copies(frd, g.elements)
     by_inc: dict = {}
@@ -374,6 +381,7 @@ def increments(frd: Frd, g: Grid, mu: float) -> list[CcxStep]:
         by_inc.setdefault((s.step, s.increment), {})[s.name] = s
     bottom = {int(n) for n in g.bottom}
     out = []
+    moved = np.zeros(len(g.slave_nodes))  # CSLIP1 of the increment before
     for (step, _), blocks in sorted(by_inc.items()):
         if "FORC" not in blocks:
             continue
@@ -386,14 +394,18 @@ def increments(frd: Frd, g: Grid, mu: float) -> list[CcxStep]:
         M = float(xy[:, 0] @ F[:, 1] - xy[:, 1] @ F[:, 0])
         rows = g.slave_nodes
         p = q = np.zeros(len(rows))
+        tangential = moved
         if "CONTACT" in blocks:
             c = blocks["CONTACT"]
             ip, iq = c.components.index("CPRESS"), c.components.index("CSHEAR1")
             p = _per_node(c.values, copies, rows, ip)
             q = CCX_SHEAR_SIGN * _per_node(c.values, copies, rows, iq)
+            tangential = _per_node(c.values, copies, rows, c.components.index("CSLIP1"))
         closed = p > 0
-        slip = np.abs(q) >= mu * p * (1 - SLIP_RTOL)
-        status = np.where(closed, np.where(slip, 2, 1), 0)
+        on_cone = np.abs(q) >= mu * p * (1 - SLIP_RTOL)
+        moving = np.abs(tangential - moved) > SLIP_MOVE_ATOL * g.h
+        moved = tangential
+        status = np.where(closed, np.where(on_cone & moving, 2, 1), 0)
         out.append(CcxStep(step, f.time, P, Q, M, np.where(closed, p, 0.0),
                            np.where(closed, q, 0.0), status))
     return out
