@@ -190,3 +190,30 @@ def test_sharp_punch_contact_only_where_the_gap_is_finite():
     x = g.xy[g.slave_nodes, 0]
     assert np.all(np.isfinite(case.profile.h0(x))) and np.all(np.isfinite(g.xy))
     assert "nan" not in ccx.deck(case, g).lower()
+
+
+def test_on_the_cone_but_not_moving_is_stick(cattaneo):
+    """Right after the stage-3 reversal ccx leaves nodes on the friction cone that no longer
+    move: they stick (status from the cone alone gave an 18 % stick-edge error)."""
+    case, g = cattaneo
+    frd = ccx.read_frd(DATA / "cattaneo_tiny.frd")
+    contact = [s for s in frd.sets if s.name == "CONTACT"][-1]
+    forc = [s for s in frd.sets if s.name == "FORC"][-1]
+    comps = contact.components
+    ip, iq, isl = (comps.index(k) for k in ("CPRESS", "CSHEAR1", "CSLIP1"))
+    on_cone = {n: [*v] for n, v in contact.values.items()}
+    for v in on_cone.values():
+        v[iq] = case.mu * v[ip]  # every contact node on the cone
+
+    def block(step, inc, slip):
+        vals = {n: [*v[:isl], v[isl] + slip, *v[isl + 1:]] for n, v in on_cone.items()}
+        return (ccx.FrdSet(step, inc, float(inc), "FORC", forc.components, forc.values),
+                ccx.FrdSet(step, inc, float(inc), "CONTACT", comps, vals))
+
+    moved = 10 * ccx.SLIP_MOVE_ATOL * g.h
+    fake = ccx.Frd(frd.elements, (*block(2, 1, 0.0), *block(2, 2, moved), *block(3, 3, moved)))
+    first, slipping, reversed_ = ccx.increments(fake, g, case.mu)
+    closed = first.status > 0
+    assert closed.any()
+    assert np.all(slipping.status[closed] == 2)   # on the cone and moving
+    assert np.all(reversed_.status[closed] == 1)  # on the cone, not moving
