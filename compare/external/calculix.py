@@ -30,6 +30,7 @@ P, Q and M come from the reactions of body 2's bottom.  Values are written in ou
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -451,7 +452,7 @@ def run_ccx(inp: Path) -> float:
                           "calculix-ccx`, elsewhere see calculix.de (or use --deck-only)")
     t0 = time.perf_counter()
     log = inp.with_suffix(".log")
-    env = {"OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1", "PATH": _path()}
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "CCX_NPROC_EQUATION_SOLVER": "1"}
     with log.open("w") as fh:
         rc = subprocess.run(["ccx", "-i", inp.stem], cwd=inp.parent, stdout=fh,
                             stderr=subprocess.STDOUT, env=env).returncode
@@ -461,12 +462,6 @@ def run_ccx(inp: Path) -> float:
         raise DriverError(f"ccx failed on {inp} (exit {rc}): "
                           f"{'; '.join(errors[:3]) or 'see ' + str(log)}")
     return time.perf_counter() - t0
-
-
-def _path() -> str:
-    import os
-
-    return os.environ.get("PATH", "")
 
 
 def tributary(x: np.ndarray) -> np.ndarray:
