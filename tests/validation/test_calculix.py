@@ -1,6 +1,6 @@
 """CalculiX end to end: the driver writes the deck, runs ccx, reads the .frd and verifies.
 
-Slow (about 1 and 2.5 minutes of ccx on a shared core at level 0); skipped where ``ccx`` is not
+Slow (2.5 and 7 minutes at level 0 on a loaded 2-core machine); skipped where ``ccx`` is not
 on PATH (Debian: ``apt-get install calculix-ccx``; ``.ci/sysdeps.sh`` installs it as root).
 """
 
