@@ -7,7 +7,7 @@
 # clear message; the tests that need them skip with the reason).
 set -u
 PYTHON=${PYTHON:-python3}
-PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri libglx-mesa0 libgl1 libxrender1 libxt6 libxext6 libx11-6 libsuitesparse-dev chromium"
+PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri libglx-mesa0 libgl1 libxrender1 libxt6 libxext6 libx11-6 libsuitesparse-dev chromium calculix-ccx"
 
 # The Debian package holding Python.h of $PYTHON, if it is missing and Debian's to give.
 python_headers() {

@@ -75,13 +75,15 @@ def load_path(case: Case) -> fem.LoadPath:
                         stage3=_merge(s3, True, case.Q0))
 
 
-def mesh(case: Case):
-    """MeshSpec or MeshFile of the case."""
+def mesh(case: Case, boundary: str | None = None):
+    """MeshSpec or MeshFile of the case; ``boundary``: fem's outer boundary condition
+    ('half-plane' or 'clamped'; None: fem's default)."""
+    bc = {} if boundary is None else {"boundary": boundary}
     if case.fem.mesh_file:
-        return fem.MeshFile(Path(case.fem.mesh_file), order=case.fem.order)
+        return fem.MeshFile(Path(case.fem.mesh_file), order=case.fem.order, **bc)
     return fem.MeshSpec(level=case.fem.level, order=case.fem.order,
                         size_factor=case.fem.size_factor, growth=case.fem.growth,
-                        layout=case.fem.layout)
+                        layout=case.fem.layout, **bc)
 
 
 def contact(case: Case) -> fem.ContactSettings:
@@ -89,9 +91,13 @@ def contact(case: Case) -> fem.ContactSettings:
                                augmented=case.fem.augmented)
 
 
-def run_fem(case: Case, normal: NormalSolution) -> fem.FemHistory:
-    """Solve the case's three-stage history with the FE model."""
+def run_fem(case: Case, normal: NormalSolution, boundary: str | None = None
+            ) -> fem.FemHistory:
+    """Solve the case's three-stage history with the FE model (``boundary``: see
+    :func:`mesh`; an external code's model with a clamped bottom and a rigid top is matched
+    with 'clamped')."""
     path = load_path(case) if case.Q0 > 0 else fem.LoadPath(n_normal=case.fem.n_normal)
     return fem.solve_history(case.profile.h0, case.P, case.Q0, case.mu, case.E, case.nu,
-                             M=case.M, mesh=mesh(case), contact=contact(case), increments=path,
-                             kinks=mesh_kinks(case, normal), window=window(case, normal))
+                             M=case.M, mesh=mesh(case, boundary), contact=contact(case),
+                             increments=path, kinks=mesh_kinks(case, normal),
+                             window=window(case, normal))

@@ -27,10 +27,13 @@ from compare.metrics import DOMINANT_SHARE
 from compare.run import CaseResult, checks_for, evaluate
 from compare.stress import STRESS_METRICS
 
-#: The result's loads may differ from the case's by this fraction of P (Q: of mu P; an applied
-#: M: of M): a displacement-driven run reaches the loads only approximately, and the analytic
-#: side is solved at the measured loads, so this only catches another case or other units.
-LOAD_MATCH_RTOL = 0.1
+#: The result's loads may differ from the case's by this fraction of P (Q: of mu P, i.e. Q0/muP
+#: within 0.02; an applied M: of M).  The analytic side is solved at the result's own loads, so
+#: this decides only whether the result is one of *this* case: it admits a run that lands
+#: within 1 % (the drivers: Kratos -0.02 % on P, -0.22 % on Q0; CalculiX under load control
+#: < 1e-4) and rejects a neighbouring load case (at 0.1, a Q0 = 0.5 mu P result passed as
+#: Cattaneo's 0.6 mu P).
+LOAD_MATCH_RTOL = 0.02
 #: A stage-1 step pairs with a stage-2/3 step for the Jaeger-Ciavarella check when its P is
 #: within this fraction of P0 of the reduced load: p then differs by about this fraction of its
 #: norm, two orders below the JC tolerance.
@@ -81,8 +84,11 @@ def _check_step(s, where: str, case: Case, P0: float, Q0: float, tol_q: float) -
 
 def _bad(where: str, what: str, want: float, tol: str = "") -> None:
     raise CaseError(f"{where}: {what} does not match the case ({want:.6g}{tol}, within "
-                    f"{LOAD_MATCH_RTOL:.0%}); is it a result of this case, in its units? "
-                    "(see the length_scale / stress_scale / sign conventions)")
+                    f"{LOAD_MATCH_RTOL:.0%}): a result at other loads (another Q0 / mu P) is not "
+                    "a result of this case; verify it against a case file at the result's loads "
+                    "(a copy of the case's .toml with its P and Q0, docs/cases.md), or, if only "
+                    "its units or signs differ, declare them with --set (length_scale, "
+                    "stress_scale, pressure_sign, shear_sign)")
 
 
 def clip_stage3(hist: fem.FemHistory) -> fem.FemHistory:

@@ -1,17 +1,23 @@
 """Kratos Multiphysics driver: a library case run in Kratos 10.3, written in the exchange format.
 
-Needs the optional extra ``[kratos]`` (``pip install -e .[kratos]``); nothing else imports it.
+Needs the optional extra ``[kratos]`` (``pip install ".[kratos]"``); nothing else imports it.
 
 Model: the two plane-strain bodies of our own FE mesh (``fem.mesh.build_mesh`` at the chosen
-level, so both codes use the same nodes), with body 1's nodes lifted by ``h0(x) (1 - y/H)``
+level with bodies ``driver.BODY_SIZE_FACTOR`` times the refined zone's half-width, so both
+codes use the same nodes), with body 1's nodes lifted by ``h0(x) (1 - y/H)``
 so that its bottom *is* the profile; linear elastic small-displacement quads; frictional
 augmented-Lagrangian mortar contact (``ALMContactFrictional``, ``alm_contact_process`` with
 ``contact_type = "Frictional"``; body 1's interface is the slave side); bottom of body 2
 clamped; the top of body 1 moved rigidly with its rotation locked.  The load path is driven by
 displacement: every step prescribes the top displacement (u, v) that our own FE plate takes at
-that step's loads (stage 1: P up to P0, stage 2: Q up to Q0, stage 3: Q down to -Q0), and the
-loads actually reached are measured from the top reactions, so Kratos' loads differ slightly
-from the case's; ``compare.verify`` solves the analytic side at the measured loads.
+that step's loads (stage 1: P up to P0, stage 2: Q up to Q0, stage 3: Q down to -Q0) in the
+model with the *same* boundary conditions (``boundary = 'clamped'``: bottom clamped, rigid
+top; the clamped model needs 0.942 times the v and 1.383 times the u of the default
+half-plane far field, whose targets put Kratos 7.5 % over P and 26 % under Q0).  The loads
+actually reached are measured from the top reactions and
+must land within ``driver.LANDING_RTOL`` (1 %) of the case's P and Q0
+(:func:`compare.external.driver.check_landed`); ``compare.verify`` solves the analytic side
+at the measured loads.
 
 Interface data (slave nodes, reference x): p from ``AUGMENTED_NORMAL_CONTACT_PRESSURE`` (the
 raw multiplier is scaled by ~E/h), q from the x component of
@@ -26,7 +32,6 @@ the library's Hertz and Cattaneo cases have a/R = 0.011.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -41,6 +46,16 @@ from compare.cases import Case, load_case
 from compare.errors import CaseError
 from compare.external import write_result
 from compare.external.csvio import MANIFEST, step_name
+from compare.external.driver import (
+    BODY_SIZE_FACTOR,
+    LANDING_RTOL,
+    DriverError,
+    check_landed,
+    landing_error,
+    parser,
+    print_verdicts,
+    run_cli,
+)
 from compare.fem_side import kinks, mesh, run_fem, window
 from compare.fileio import owned_output, plan_output
 
@@ -86,7 +101,7 @@ def geometry(case: Case, level: int) -> Geometry:
     from fem.mesh import build_mesh
 
     normal = solve_normal_case(case)
-    tbm = build_mesh(mesh(case.with_fem(level=level)), window(case, normal), kinks(case))
+    tbm = build_mesh(mesh(_fe_case(case, level)), window(case, normal), kinks(case))
     upper, lower = tbm.bodies
     H = float(upper.p[1].max())
     p1 = upper.p.copy()
@@ -199,10 +214,47 @@ def _fix(part: str) -> dict:
             "Parameters": where | {"constrained": [True] * 3, "value": [0.0] * 3}}
 
 
+#: The boundary conditions of the Kratos model, in fem's terms (the FE targets use the same).
+BOUNDARY = "clamped"
+#: A run that misses the case's P or Q0 by more than this fraction is repeated once with the
+#: targets corrected on its reactions (:func:`corrected`), so that it lands well inside the
+#: 1 % landing tolerance (measured, Cattaneo level 0 with 32-wide bodies: Q0 -0.8 % before).
+RETARGET_RTOL = 0.5 * LANDING_RTOL
+
+
+def _fe_case(case: Case, level: int) -> Case:
+    """The case with our FE mesh of the Kratos model: ``level``, bodies BODY_SIZE_FACTOR wide."""
+    return case.with_fem(level=level, size_factor=BODY_SIZE_FACTOR)
+
+
 def targets(case: Case, level: int):
-    """Our own FE history at the same mesh: the top displacements (u, v) of every step."""
-    hist = run_fem(case.with_fem(level=level), solve_normal_case(case))
+    """Our own FE history on the same mesh with the same boundary conditions (clamped
+    bottom, rigid top): the top displacements (u, v) of every step."""
+    hist = run_fem(_fe_case(case, level), solve_normal_case(case), boundary=BOUNDARY)
     return hist, [(s.stage, float(s.plate[0]), float(s.plate[1])) for s in hist.steps]
+
+
+def corrected(path: list, fe_loads: list, measured: list) -> list:
+    """The targets after one secant step on the measured loads.
+
+    ``path``: (stage, u, v) per step; ``fe_loads``, ``measured``: (P, Q) per step of our FE
+    (the loads the targets are meant to reach) and of Kratos.  v moves by
+    (P_fe - P_kratos) / (dP/dv) and u by (Q_fe - Q_kratos) / (dQ/du), Kratos' own secant
+    slopes along the path (stage 1: from the step before, or from (0, 0); stages 2-3: v with
+    the last stage-1 slope, u from the step before).  Exact for a response linear between
+    steps; Kratos differs from our FE by a fraction of a percent, so one step suffices.
+    """
+    out, sP, prev = [], None, (0.0, 0.0, 0.0, 0.0)  # (u, v, P, Q) of Kratos' step before
+    for (stage, u, v), (P, Q), (Pm, Qm) in zip(path, fe_loads, measured, strict=True):
+        pu, pv, pP, pQ = prev
+        if stage == 1 and v != pv:
+            sP = (Pm - pP) / (v - pv)
+        sQ = (Qm - pQ) / (u - pu) if stage > 1 and u != pu else None
+        dv = (P - Pm) / sP if sP else 0.0
+        du = (Q - Qm) / sQ if sQ else 0.0
+        out.append((stage, u + du, v + dv))
+        prev = (u, v, Pm, Qm)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -235,7 +287,8 @@ def _solve_step(analysis, top_nodes, u: float, v: float) -> None:
         node.SetSolutionStepValue(KM.DISPLACEMENT_Y, 0, v)
     solver.Predict()
     if not solver.SolveSolutionStep():
-        raise RuntimeError(f"Kratos did not converge at t = {analysis.time:g} (u={u:g}, v={v:g})")
+        raise DriverError(f"Kratos did not converge at t = {analysis.time:g} (top displacement "
+                          f"u = {u:g}, v = {v:g})")
     analysis.FinalizeSolutionStep()
 
 
@@ -266,6 +319,7 @@ def run(case: Case | str, out: str | Path, level: int = 0, force: bool = False) 
     ``out/multicontact_fem`` in the exchange format, for a side-by-side verification.  ``out``
     is written through :func:`compare.fileio.owned_output` (a folder holding other files is
     refused unless ``force``, which keeps them; the previous run's files are replaced).
+    Raises :class:`DriverError` when Kratos fails or lands more than 1 % off the case's loads.
     """
     case = load_case(case)
     if case.M is not None:
@@ -276,25 +330,40 @@ def run(case: Case | str, out: str | Path, level: int = 0, force: bool = False) 
     g = geometry(case, level)
     hist, path = targets(case, level)
     t_fe = time.perf_counter() - t0
+    note = (f"top displacements of multicontact fem with a {BOUNDARY} boundary "
+            f"({hist.n_dofs} dofs, {t_fe:.1f} s)")
     with owned_output(out, "kratos", force, plan) as tmp:
         write_result(hist, tmp / "multicontact_fem", case=case.name)
         work = tmp / "kratos"
         work.mkdir()
         (work / f"{case.name}.mdpa").write_text(mdpa_text(g))
         (work / f"{case.name}_materials.json").write_text(json.dumps(materials(case)))
-        cwd = os.getcwd()
-        try:
-            rows, seconds, n_dofs = _run_kratos(work, case.name, g, path)
-        finally:
-            os.chdir(cwd)
-        x = g.xy[g.slave, 0]
-        note = f"top displacements of multicontact fem ({hist.n_dofs} dofs, {t_fe:.1f} s)"
-        write_steps(tmp, case.name, x, rows, n_dofs, seconds, note)
+        rows, seconds, n_dofs = _run_kratos(work, case.name, g, path)
+        if landing_error("Kratos", case, _loads(rows), RETARGET_RTOL):
+            path = corrected(path, [(s.P, s.Q) for s in hist.steps],
+                             [(d["P"], d["Q"]) for _, d in rows])
+            rows, again, n_dofs = _run_kratos(work, case.name, g, path)
+            seconds += again
+            note += "; corrected once on Kratos' reactions (two Kratos runs)"
+        check_landed("Kratos", case, _loads(rows))
+        write_steps(tmp, case.name, g.xy[g.slave, 0], rows, n_dofs, seconds, note)
     return plan.out / MANIFEST
+
+
+def _loads(rows: list) -> list:
+    return [(stage, d["P"], d["Q"]) for stage, d in rows]
 
 
 def _run_kratos(work: Path, name: str, g: Geometry, path) -> tuple[list, float, int]:
     """Solve every step; (stage, measurements) rows, wall seconds, equation-system size."""
+    cwd = os.getcwd()
+    try:
+        return _solve_path(work, name, g, path)
+    finally:
+        os.chdir(cwd)
+
+
+def _solve_path(work: Path, name: str, g: Geometry, path) -> tuple[list, float, int]:
     t0 = time.perf_counter()
     analysis = _analysis(work, parameters(name, len(path)))
     mp = analysis._GetSolver().GetComputingModelPart().GetRootModelPart()
@@ -329,33 +398,22 @@ def write_steps(out: Path, case: str, x: np.ndarray, rows: list, n_dofs: int, se
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m compare.external.kratos CASE OUT [--level L]``: run, write, verify."""
-    from compare.testing import format_checks
-    from compare.verify import verify
+    """``python -m compare.external.kratos CASE OUT [--level L]``: run, write, verify.
 
-    ap = argparse.ArgumentParser(prog="python -m compare.external.kratos")
-    ap.add_argument("case")
-    ap.add_argument("out")
-    ap.add_argument("--level", type=int, default=0)
-    ap.add_argument("--force", action="store_true",
-                    help="write into a folder that holds other files (they are kept)")
-    args = ap.parse_args(argv)
+    Exit 0 (Kratos agrees), 1 (it does not), 2 (Kratos missing or failed, or its run missed
+    the case's loads, or OUT refused: one message on stderr).
+    """
+    prog = "python -m compare.external.kratos"
+    args = parser(prog, "Run a case in Kratos Multiphysics and verify it.").parse_args(argv)
     if not available():
-        print("Kratos is not installed: pip install -e .[kratos]", file=sys.stderr)
+        print(f'{prog}: error: Kratos is not installed: pip install ".[kratos]"', file=sys.stderr)
         return 2
-    try:
+
+    def body() -> bool:
         manifest = run(args.case, args.out, args.level, args.force)
-    except CaseError as exc:
-        print(f"python -m compare.external.kratos: error: {exc}", file=sys.stderr)
-        return 2
-    results = [verify(args.case, m) for m in (manifest, manifest.parent / "multicontact_fem")]
-    for res in results:
-        print(format_checks(res.checks, f"{res.case.name}: {res.source}, {res.fem.n_dofs} dofs, "
-                            f"{res.timings['external']:.1f} s: "
-                            f"{'agrees' if res.passed else 'FAILS'}"))
-        for metric, why in res.unavailable.items():
-            print(f"  not available: {metric}: {why}")
-    return 0 if results[0].passed else 1
+        return print_verdicts(args.case, [manifest, manifest.parent / "multicontact_fem"])
+
+    return run_cli(prog, body)
 
 
 if __name__ == "__main__":
