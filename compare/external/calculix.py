@@ -44,7 +44,6 @@ from compare.analytic_side import solve_normal_case
 from compare.cases import Case, load_case
 from compare.errors import CaseError
 from compare.external.csvio import MANIFEST, step_name
-from compare.fileio import owned_output, plan_output
 from compare.external.driver import (
     BODY_SIZE_FACTOR,
     DriverError,
@@ -53,6 +52,7 @@ from compare.external.driver import (
     print_verdicts,
     run_cli,
 )
+from compare.fileio import owned_output, plan_output
 
 #: Elements across the (widened) contact span at level 0; level L has 2**L times as many.
 N_SPAN = 40
