@@ -28,7 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from skfem import BilinearForm, asm
 
 import analytic
 import fem
@@ -37,6 +36,7 @@ from compare._memo import memo
 from compare.analytic_side import AnalyticResult
 from compare.cases import Case
 from compare.fem_side import kinks
+from fem.bulk import mass_matrix
 
 NAN = float("nan")
 #: The metrics of :func:`stress_metrics`.
@@ -83,11 +83,6 @@ class StressRow:
 # ---------------------------------------------------------------------------------------------
 # FE body-2 nodes
 # ---------------------------------------------------------------------------------------------
-@BilinearForm
-def _mass(u, v, w):
-    return u * v
-
-
 def body2_xy(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray]:
     """``(x, y)`` of body 2's stress nodes (no assembly: for callers that need no weights)."""
     sb = hist.fields.disc.scalar_bases[1]
@@ -96,7 +91,7 @@ def body2_xy(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray]:
 
 def body2_nodes(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(x, y, w)`` of body 2's stress nodes, ``w`` the lumped-mass (area) weights."""
-    w = np.asarray(asm(_mass, hist.fields.disc.scalar_bases[1]).sum(axis=1)).ravel()
+    w = np.asarray(mass_matrix(hist.fields.disc.scalar_bases[1]).sum(axis=1)).ravel()
     return (*body2_xy(hist), w)
 
 

@@ -76,9 +76,54 @@ def plane_strain_elasticity(E: float, nu: float):
 
 
 def stiffness(mesh: MeshQuad, order: int, E: float, nu: float) -> tuple[Basis, sp.csr_matrix]:
-    """Vector basis and plane-strain stiffness matrix of one body."""
+    """Vector basis and plane-strain stiffness matrix of one body (the form
+    :func:`plane_strain_elasticity`, assembled by :func:`elasticity_matrix`)."""
     basis = Basis(mesh, ElementVector(ELEMENTS[order]()))
-    return basis, asm(plane_strain_elasticity(E, nu), basis).tocsr()
+    return basis, elasticity_matrix(Basis(mesh, ELEMENTS[order]()), E, nu)
+
+
+#: Elements per block of the vectorised element kernel (memory ~ 8 (2 n_loc)^2 bytes each).
+ELEMENT_BLOCK = 20000
+
+
+def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
+    """Plane-strain stiffness in the vector numbering ``2 * scalar dof + component``, from the
+    scalar basis gradients in one vectorised kernel (the bilinear form of
+    :func:`plane_strain_elasticity`, ``sigma(u) : eps(v)``, without its per-entry Python
+    loop): with ``D_ab^kl = int d_k phi_a d_l phi_b``,
+    ``K[(a, i), (b, j)] = lam D_ab^ij + mu D_ab^ji + mu delta_ij (D_ab^00 + D_ab^11)``."""
+    lam, mu = lame_parameters(E, nu)
+    grads = np.array([phi[0].grad for phi in scalar.basis])  # (n_loc, 2, n_el, n_qp)
+    dofs = scalar.element_dofs  # (n_loc, n_el)
+    n_loc, n_el = dofs.shape
+    eye = np.eye(2)
+    parts = []
+    for e0 in range(0, n_el, ELEMENT_BLOCK):
+        sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
+        g = grads[:, :, sl]
+        D = np.einsum("akeq,bleq,eq->eabkl", g, g, scalar.dx[sl], optimize=True)
+        trace = D[..., 0, 0] + D[..., 1, 1]
+        Ke = (
+            lam * D + mu * D.transpose(0, 1, 2, 4, 3) + mu * trace[..., None, None] * eye
+        )  # (e, a, b, i, j)
+        vec = 2 * dofs[:, sl].T[:, :, None] + np.arange(2)  # (e, a, i)
+        rows = np.broadcast_to(vec[:, :, None, :, None], Ke.shape)
+        cols = np.broadcast_to(vec[:, None, :, None, :], Ke.shape)
+        parts.append((Ke.ravel(), rows.ravel(), cols.ravel()))
+    data, r, c = (np.concatenate(x) for x in zip(*parts, strict=True))
+    n = 2 * scalar.N
+    return sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr()
+
+
+def mass_matrix(scalar: Basis) -> sp.csr_matrix:
+    """Scalar mass matrix ``M_ab = int phi_a phi_b`` (vectorised, as :func:`elasticity_matrix`)."""
+    phi = np.array([p[0].value for p in scalar.basis])  # (n_loc, n_el, n_qp)
+    Me = np.einsum("aeq,beq,eq->eab", phi, phi, scalar.dx, optimize=True)
+    dofs = scalar.element_dofs.T  # (n_el, n_loc)
+    rows = np.broadcast_to(dofs[:, :, None], Me.shape)
+    cols = np.broadcast_to(dofs[:, None, :], Me.shape)
+    n = scalar.N
+    return sp.coo_matrix((Me.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n)).tocsr()
 
 
 def facets_on(mesh: MeshQuad, nodes: np.ndarray) -> np.ndarray:
@@ -170,6 +215,7 @@ __all__ = [
     "Interface",
     "discretise",
     "free_dofs",
+    "mass_matrix",
     "reduced_stiffness",
     "stiffness",
     "plane_strain_elasticity",

@@ -10,18 +10,20 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
-from scipy.sparse.linalg import splu
-from skfem import BilinearForm, asm
 from skfem.helpers import sym_grad
 
+from .bulk import mass_matrix
 from .condense import pair_loads
+from .linsolve import factorize
 
 
 class FieldRecovery:
     """Displacements of both bodies for all increments; stresses computed lazily."""
 
-    def __init__(self, disc, U1: np.ndarray, U2: np.ndarray):
+    def __init__(self, disc, U1: np.ndarray, U2: np.ndarray, backend: str = "auto"):
         self.disc = disc
+        #: Sparse backend of the stress projections (the bulk's: CHOLMOD when available).
+        self.backend = backend
         self.U = (U1, U2)
         K1 = disc.stiffness[0]
         F1 = K1 @ U1
@@ -41,10 +43,7 @@ class FieldRecovery:
         """Recover the full fields of a list of converged contact states."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
-        if model.factor.solve_pairs is not None:
-            Uf = model.factor.solve_pairs(lam)
-        else:
-            Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
+        Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
         N1 = disc.bases[0].N
         U = np.zeros((disc.n_dofs, lam.shape[1]))
         U[model.free] = Uf
@@ -57,7 +56,7 @@ class FieldRecovery:
         rigid_u = z[0][None, :] - loc[1][:, None] * z[2][None, :]
         rigid_v = z[1][None, :] + loc[0][:, None] * z[2][None, :]
         U1 = U1 + np.where(even[:, None], rigid_u, rigid_v)
-        return cls(disc, U1, U2)
+        return cls(disc, U1, U2, model.factor.backend)
 
     def displacement(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Displacement dof vectors (body 1, body 2) of increment i."""
@@ -92,13 +91,11 @@ class FieldRecovery:
             lam * tr,
         )
         if body not in self._mass:  # one factorisation per body for every projection
-            self._mass[body] = (splu(asm(_MASS, scalar).tocsc()), load_operator(scalar))
+            mass = factorize(mass_matrix(scalar), self.backend)
+            self._mass[body] = (mass, load_operator(scalar))
         mass, load = self._mass[body]
         rhs = load @ np.stack([np.asarray(c).ravel() for c in comps], axis=1)
         return mass.solve(rhs).T
-
-
-_MASS = BilinearForm(lambda u, v, w: u * v)
 
 
 def load_operator(scalar) -> csr_matrix:

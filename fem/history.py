@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validate import check_scalars, check_settings
+from .activeset import ActiveSetSolver
 from .bulk import Discretisation, discretise, free_dofs, reduced_stiffness
 from .condense import condense, pair_dofs
 from .contact import (
@@ -249,7 +250,12 @@ def blend(a: Load, b: Load, f: float) -> Load:
 
 
 def advance(
-    prob: InterfaceProblem, old: ContactState, target: Load, contact: ContactSettings, stage: int
+    prob: InterfaceProblem,
+    old: ContactState,
+    target: Load,
+    contact: ContactSettings,
+    stage: int,
+    solver: ActiveSetSolver,
 ) -> ContactState:
     """Reach ``target`` from ``old``, halving the step on failure (up to max_cutbacks times)."""
     n_sub, last = 1, ""
@@ -257,7 +263,9 @@ def advance(
         state, its = old, 0
         try:
             for k in range(1, n_sub + 1):
-                state = solve_augmented(prob, state, blend(old.load, target, k / n_sub), contact)
+                state = solve_augmented(
+                    prob, state, blend(old.load, target, k / n_sub), contact, solver
+                )
                 its += state.iterations
             return replace(state, iterations=its)
         except NotConverged as exc:
@@ -274,9 +282,10 @@ def advance(
 def run_increments(prob: InterfaceProblem, schedule, contact: ContactSettings, M):
     """Converged states of all scheduled increments."""
     state = initial_state(prob, M)
+    solver = ActiveSetSolver(prob)
     states = []
     for stage, _, target in schedule:
-        state = advance(prob, state, target, contact, stage)
+        state = advance(prob, state, target, contact, stage, solver)
         states.append(state)
     return states
 
