@@ -1,11 +1,14 @@
 """FE benchmarks.
 
-1. Accuracy and cost per level (issue 14): the library case ``cattaneo`` (Hertz cylinder in
-   stage 1, Cattaneo-Mindlin in stages 2-3) under uniform refinement, each level in a fresh
-   process: DOFs, interface nodes of the contact model, history time, peak memory (RSS growth
-   of the process), edge error (stage-1 end) and stick-edge error (max over the samples), both
-   relative to the contact width, beside a reference row measured with Kratos (below).  Then
-   least-squares exponents of time and memory against the number of interface nodes.
+1. Accuracy and cost per level (issues 14, 28): the library case ``cattaneo`` (Hertz cylinder
+   in stage 1, Cattaneo-Mindlin in stages 2-3) under uniform refinement, each level in a fresh
+   process: DOFs, interface nodes n of the contact model, history time (wall-clock and CPU),
+   peak memory (RSS growth of the process), edge error (stage-1 end) and stick-edge error (max
+   over the samples), both relative to the contact width, beside a reference row measured with
+   Kratos (below); a level that does not fit says so.  Then the time split per level (mesh,
+   assembly, factorisation+condensation, increments, recovery, metrics; wall-clock / CPU: on a
+   shared machine the CPU seconds are the stable figure) and least-squares exponents of time
+   and memory against n.
 2. Cost on the default mesh (issue 4): Hertz and double wedge, DOFs, assembly time, one plain
    factorisation + solve (reference), the whole three-stage history (>= 40 increments) and the
    ratio history / (factorisation + solve).  Targets: ratio <= 5, whole default Hertz history
@@ -21,6 +24,7 @@ import argparse
 import resource
 import time
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
 
 import numpy as np
@@ -105,22 +109,42 @@ def run(name: str, case: dict, spec: fem.MeshSpec) -> dict:
 KRATOS = ((20, 15.6, 7.7e-4, 3.5e-3), (40, 75.0, 3.9e-4, 2.9e-3), (80, 406.0, 1.9e-4, 2.2e-3))
 
 
+#: Phases of one level: the FE history's (fem.solve_history timings) and the comparison's
+#: metrics (compare.run.evaluate: interface, error and stress metrics).
+PHASES = ("mesh", "assembly", "factorisation+condensation", "increments", "recovery", "metrics")
+#: Column heads of PHASES.
+PHASE_HEADS = ("mesh", "assembly", "fact+cond", "increments", "recovery", "metrics")
+
+
 def level_row(level: int) -> dict:
-    """One refinement level of the library case cattaneo (run in a fresh process)."""
+    """One refinement level of the library case cattaneo (run in a fresh process): sizes,
+    wall-clock and CPU seconds per phase, peak memory (RSS growth of the process) and errors."""
+    from compare.analytic_side import solve_case
     from compare.cases import load_case
     from compare.convergence import refined_growth
-    from compare.run import run_case
+    from compare.fem_side import run_fem
+    from compare.run import evaluate
 
     case = load_case("cattaneo")
     case = case.with_fem(level=level, growth=refined_growth(case, level))
+    an = solve_case(case)
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    res = run_case(case)
+    c0 = time.process_time()
+    hist = run_fem(case, an.normal)
+    c1, w1 = time.process_time(), time.perf_counter()
+    metrics = evaluate(case, an, hist)[0]
+    c2, w2 = time.process_time(), time.perf_counter()
     rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    a, b = res.analytic.normal.zones[0]
-    return dict(level=level, a_over_h=0.5 * (b - a) / res.fem.h_min, dofs=res.fem.n_dofs,
-                nodes=res.fem.n_candidates, history=res.fem.timings["history"],
-                memory=max(rss1 - rss0, 1) / 1024.0, edge=res.metrics["edge_error_max"],
-                stick=res.metrics["stick_edge_error_max"])
+    a, b = an.normal.zones[0]
+    cpu = dict(hist.timings.get("cpu", {}))
+    cpu["metrics"] = c2 - c1
+    wall = {k: hist.timings.get(k, float("nan")) for k in PHASES[:-1]}
+    wall["metrics"] = w2 - w1
+    return dict(level=level, a_over_h=0.5 * (b - a) / hist.h_min, dofs=hist.n_dofs,
+                nodes=hist.n_candidates, history=hist.timings["history"],
+                cpu_history=cpu.get("history", float("nan")), cpu_fem=c1 - c0, wall=wall, cpu=cpu,
+                memory=max(rss1 - rss0, 1) / 1024.0, edge=metrics["edge_error_max"],
+                stick=metrics["stick_edge_error_max"])
 
 
 def local_order(prev: dict | None, row: dict, key: str) -> float:
@@ -135,30 +159,61 @@ def exponent(n: list[float], y: list[float]) -> float:
     return float(np.polyfit(np.log(n), np.log(y), 1)[0])
 
 
+def run_level(level: int) -> dict | str:
+    """level_row in a fresh process, or the reason it did not run (a level too large for the
+    machine must say so, not crash the table)."""
+    ctx = get_context("spawn")
+    try:
+        with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
+            return pool.submit(level_row, level).result()
+    except (MemoryError, BrokenProcessPool) as exc:
+        return f"did not fit ({type(exc).__name__}: the worker ran out of memory or was killed)"
+
+
 def accuracy_table(levels: list[int]) -> None:
     rows = []
-    ctx = get_context("spawn")
-    for level in levels:
-        with ProcessPoolExecutor(max_workers=1, mp_context=ctx) as pool:
-            rows.append(pool.submit(level_row, level).result())
     print("Hertz (stage 1) + Cattaneo (stages 2-3), library case cattaneo, uniform refinement")
-    print(f"{'':<8}{'a/h':>6}{'DOFs':>9}{'iface':>7}{'history s':>10}{'memory MB':>10}"
-          f"{'edge %':>9}{'stick %':>9}{'edge order':>11}{'stick order':>12}")
+    print(f"{'':<8}{'a/h':>6}{'DOFs':>9}{'iface':>7}{'history s':>10}{'CPU s':>8}"
+          f"{'memory MB':>10}{'edge %':>9}{'stick %':>9}{'edge order':>11}{'stick order':>12}")
     prev = None
-    for r in rows:
+    for level in levels:
+        r = run_level(level)
+        if isinstance(r, str):
+            print(f"{'level ' + str(level):<8} {r}")
+            continue
+        rows.append(r)
         print(f"{'level ' + str(r['level']):<8}{r['a_over_h']:>6.0f}{r['dofs']:>9}"
-              f"{r['nodes']:>7}{r['history']:>10.2f}{r['memory']:>10.0f}"
+              f"{r['nodes']:>7}{r['history']:>10.2f}{r['cpu_history']:>8.2f}{r['memory']:>10.0f}"
               f"{100 * r['edge']:>9.4f}{100 * r['stick']:>9.4f}"
-              f"{local_order(prev, r, 'edge'):>11.2f}{local_order(prev, r, 'stick'):>12.2f}")
+              f"{local_order(prev, r, 'edge'):>11.2f}{local_order(prev, r, 'stick'):>12.2f}",
+              flush=True)
         prev = r
     for a_h, wall, edge, stick in KRATOS:
-        print(f"{'Kratos':<8}{a_h:>6}{'':>9}{'':>7}{wall:>10.1f}{'':>10}{100 * edge:>9.4f}"
+        print(f"{'Kratos':<8}{a_h:>6}{'':>9}{'':>7}{wall:>10.1f}{'':>8}{'':>10}{100 * edge:>9.4f}"
               f"{100 * stick:>9.4f}")
-    if len(rows) >= 2:
-        n = [r["nodes"] for r in rows]
-        print(f"growth with interface nodes n: history time ~ n^"
-              f"{exponent(n, [r['history'] for r in rows]):.2f}, memory ~ n^"
-              f"{exponent(n, [r['memory'] for r in rows]):.2f}")
+    phase_table(rows)
+
+
+def phase_table(rows: list[dict]) -> None:
+    """Time split per level (wall / CPU seconds) and the growth exponents in n."""
+    if not rows:
+        return
+    print("\ntime split per level, wall-clock / CPU seconds (history = fact+cond + increments + "
+          "recovery)")
+    print(f"{'':<8}{'n':>6}" + "".join(f"{h:>17}" for h in PHASE_HEADS))
+    for r in rows:
+        cells = "".join(f"{r['wall'][k]:>9.2f}/{r['cpu'].get(k, float('nan')):<7.2f}"
+                        for k in PHASES)
+        print(f"{'level ' + str(r['level']):<8}{r['nodes']:>6}{cells}")
+    if len(rows) < 2:
+        return
+    n = [r["nodes"] for r in rows]
+    fits = [f"history {exponent(n, [r['history'] for r in rows]):.2f}",
+            f"history CPU {exponent(n, [r['cpu_history'] for r in rows]):.2f}"]
+    fits += [f"{h} CPU {exponent(n, [max(r['cpu'][k], 1e-3) for r in rows]):.2f}"
+             for k, h in zip(PHASES, PHASE_HEADS, strict=True) if all(k in r["cpu"] for r in rows)]
+    fits.append(f"memory {exponent(n, [r['memory'] for r in rows]):.2f}")
+    print("growth with interface nodes n (least-squares exponent of t ~ n^k): " + ", ".join(fits))
 
 
 def cost_table() -> None:
