@@ -138,10 +138,11 @@ def unit_traction(v, w):
     return v
 
 
-def interface_side(mesh: MeshQuad, nodes: np.ndarray, order: int):
-    """Scalar interface dofs of one body, sorted by x, with their weights."""
+def interface_side(mesh: MeshQuad, nodes: np.ndarray, order: int, scalar: Basis | None = None):
+    """Scalar interface dofs of one body, sorted by x, with their weights (``scalar``: the
+    body's scalar basis, built if None)."""
     facets = facets_on(mesh, nodes)
-    scalar = Basis(mesh, ELEMENTS[order]())
+    scalar = scalar or Basis(mesh, ELEMENTS[order]())
     dofs = scalar.get_dofs(facets).all()
     weights = asm(unit_traction, FacetBasis(mesh, ELEMENTS[order](), facets=facets))
     x = scalar.doflocs[0, dofs]
@@ -164,9 +165,12 @@ def discretise(
     boundary: 'clamped' (body 1's top and body 2's bottom fixed, the sides free) or
     'half-plane' (every boundary dof off y = 0 fixed; fem.farfield prescribes it).
     """
-    (b1, K1), (b2, K2) = (stiffness(m, order, E, nu) for m in mesh.bodies)
-    x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order)
-    x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order)
+    scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
+    # the vector bases share the scalar ones' mapping and quadrature (no second set-up)
+    b1, b2 = (s.with_element(ElementVector(ELEMENTS[order]())) for s in scalars)
+    K1, K2 = (elasticity_matrix(s, E, nu) for s in scalars)
+    x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order, scalars[0])
+    x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order, scalars[1])
     if boundary == "half-plane":
         fixed = tuple(
             b.get_dofs(outer_facets(m)).all() for b, m in zip((b1, b2), mesh.bodies, strict=True)
@@ -177,7 +181,6 @@ def discretise(
             b2.get_dofs(facets_on(mesh.bodies[1], mesh.nodes["bottom"])).all(),
         )
     iface = Interface(x=0.5 * (x1 + x2), w=0.5 * (w1 + w2), dof1=d1, dof2=d2)
-    scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
     return Discretisation(
         mesh=mesh,
         order=order,
