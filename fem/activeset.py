@@ -54,6 +54,8 @@ OPEN, STICK, SLIP = 0, 1, 2
 REFACTOR_FRACTION = 0.25
 #: Below this rank an update is always used (tiny systems: factorising is cheap anyway).
 REFACTOR_MIN_RANK = 8
+#: Above this many (row run, column run) blocks a product with C gathers a copy instead.
+MAX_BLOCKS = 64
 #: Reference factorisations kept (predictor-type and converged-type sets of an increment).
 POOL = 2
 
@@ -130,35 +132,65 @@ def rows(prob: InterfaceProblem, sets: Sets, idx: np.ndarray) -> np.ndarray:
     return out
 
 
-def matvec(prob: InterfaceProblem, sets: Sets, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(A X, d)`` for the full matrix of ``sets`` (X: (N,) or (N, k)); d = C lam + B z."""
+def matvec(prob: InterfaceProblem, sets: Sets, X: np.ndarray) -> np.ndarray:
+    """``A X`` for the full matrix of ``sets`` (X: (N,) or (N, k)).  Only the compliance rows
+    (stick tangential, active normal) read C, and only its columns where lam is non-zero:
+    ``O(n_active^2)`` for an iterate, less for the open part of a reference solve."""
     n = prob.n
     lam, z = X[: 2 * n], X[2 * n :]
-    d = compliance_product(prob.C, lam) + prob.plate_matrix() @ z
     st = sets.status
     col = (slice(None),) + (None,) * (X.ndim - 1)
-    w = prob.w[col]
     diag = np.diag(prob.C)
-    stick_t = d[:n] + lam[:n] / (w * prob.k_t)
-    slip_t = lam[:n] - (prob.mu * sets.sign)[col] * lam[n:]
-    out_t = np.where(
-        (st == STICK)[col], stick_t, np.where((st == SLIP)[col], slip_t, diag[:n][col] * lam[:n])
+    out = np.empty_like(X)
+    out[: 2 * n] = diag[col] * lam
+    slip = np.flatnonzero(st == SLIP)
+    out[slip] = lam[slip] - (prob.mu * sets.sign[slip])[col] * lam[slip + n]
+    comp = np.r_[np.flatnonzero(st == STICK), np.flatnonzero(st > OPEN) + n]
+    k = np.where(comp < n, prob.k_t, prob.k_n)
+    out[comp] = (
+        compliance_product(prob.C, lam, comp)
+        + prob.plate_matrix()[comp] @ z
+        + lam[comp] / (prob.w[comp % n] * k)[col]
     )
-    out_n = np.where((st > OPEN)[col], d[n:] + lam[n:] / (w * prob.k_n), diag[n:][col] * lam[n:])
-    q = lam[:n].sum(axis=0) if sets.any_stick else z[0]
-    plate = [q, lam[n:].sum(axis=0)]
+    out[2 * n] = lam[:n].sum(axis=0) if sets.any_stick else z[0]
+    out[2 * n + 1] = lam[n:].sum(axis=0)
     if not prob.lock_theta:
-        plate.append(prob.x @ lam[n:])
-    return np.concatenate([out_t, out_n, np.array(plate)]), d
+        out[2 * n + 2] = prob.x @ lam[n:]
+    return out
 
 
-def compliance_product(C: np.ndarray, lam: np.ndarray) -> np.ndarray:
-    """``C @ lam``, reading only the columns of C where lam has non-zero rows when those are
-    fewer than half (the open part of a reference solve, the columns of a few changed rows)."""
+def relative_displacement(prob: InterfaceProblem, x: np.ndarray) -> np.ndarray:
+    """``d = C lam + B z`` at every pair for the solution x."""
+    n = prob.n
+    return compliance_product(prob.C, x[: 2 * n]) + prob.plate_matrix() @ x[2 * n :]
+
+
+def compliance_product(C: np.ndarray, lam: np.ndarray, rows: np.ndarray | None = None):
+    """``(C @ lam)[rows]`` (all rows if None; ``rows`` sorted), reading only the columns of C
+    where lam has non-zero rows (the active pairs of an iterate, a few changed rows of a
+    reference solve).  Sets of pairs are a few runs of neighbours (contact and stick zones):
+    the product is taken block by block on views of C, without gathering a copy."""
     nz = np.flatnonzero(np.any(lam != 0, axis=1) if lam.ndim == 2 else lam != 0)
-    if 2 * nz.size >= lam.shape[0]:
-        return C @ lam
-    return C[:, nz] @ lam[nz]
+    rows = np.arange(C.shape[0]) if rows is None else rows
+    out = np.zeros((rows.size, *lam.shape[1:]))
+    col_runs, row_runs = index_runs(nz), index_runs(rows)
+    if len(col_runs) * len(row_runs) > MAX_BLOCKS:
+        return C[np.ix_(rows, nz)] @ lam[nz]
+    at = 0
+    for r0, r1 in row_runs:
+        for c0, c1 in col_runs:
+            out[at : at + r1 - r0] += C[r0:r1, c0:c1] @ lam[c0:c1]
+        at += r1 - r0
+    return out
+
+
+def index_runs(idx: np.ndarray) -> list[tuple[int, int]]:
+    """Maximal runs ``[start, stop)`` of consecutive integers in the sorted array idx."""
+    if idx.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(idx) != 1) + 1
+    starts, ends = np.r_[idx[0], idx[cut]], np.r_[idx[cut - 1], idx[-1]] + 1
+    return list(zip(starts.tolist(), ends.tolist(), strict=True))
 
 
 @dataclass(eq=False)
@@ -178,7 +210,7 @@ class Reference:
         diag = np.diag(prob.C)
         X = np.zeros_like(B)
         X[self.opn] = B[self.opn] / (diag[self.opn] if B.ndim == 1 else diag[self.opn, None])
-        a12x = matvec(prob, self.sets, X)[0][self.act] if self.opn.size else 0.0
+        a12x = matvec(prob, self.sets, X)[self.act] if self.opn.size else 0.0
         X[self.act] = lu_solve(self.lu, B[self.act] - a12x, check_finite=False)
         return X
 
@@ -246,14 +278,14 @@ class ActiveSetSolver:
             return x0 - W @ lu_solve(cap, AJ @ x0 - r[J], check_finite=False)
 
         x = apply(b)
-        x += apply(b - matvec(prob, sets, x)[0])
+        x += apply(b - matvec(prob, sets, x))
         n = prob.n
         open_ = np.flatnonzero(sets.status == OPEN)
         x[open_], x[open_ + n] = 0.0, 0.0
         if not np.all(np.isfinite(x)):
             raise NotConverged("active-set system: non-finite solution")
         self.updates += int(cap is not None)
-        return x, matvec(prob, sets, x)[1]
+        return x, relative_displacement(prob, x)
 
     def reference(self, sets: Sets) -> tuple[Reference, np.ndarray]:
         """The pool reference nearest to ``sets`` and the rows J that differ; a new reference

@@ -63,7 +63,7 @@ def test_updated_solves_equal_direct_solves(lock_theta):
         direct = np.linalg.solve(A, b)
         assert np.abs(A @ x - b).max() <= RESIDUAL_TOL * np.abs(A).max() * np.abs(x).max()
         assert np.allclose(x, direct, rtol=1e-9, atol=1e-10 * np.abs(direct).max())
-        assert np.allclose(matvec(prob, sets, x)[0], A @ x, rtol=1e-12, atol=1e-13)
+        assert np.allclose(matvec(prob, sets, x), A @ x, rtol=1e-12, atol=1e-13)
         lam = x[: 2 * n]
         assert np.allclose(d, prob.C @ lam + prob.plate_matrix() @ x[2 * n :])
         assert np.all(lam[np.r_[status, status] == OPEN] == 0.0)
