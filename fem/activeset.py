@@ -23,11 +23,13 @@ the system of every iteration is a row update of a *reference* system factorised
 (Sherman-Morrison-Woodbury; ``A[J] W`` is the small capacitance matrix, ``A0[J] W = I``).
 A0 is block triangular in (active, open) ordering, ``[[A11, A12], [0, diag(c)]]``, so only
 its active block A11 (the reference active system) is LU-factorised.  Cost per iteration:
-one solve with the reference factors, one product with C, and ``O(r N)`` per changed row
-instead of an ``O(N_active^3)`` factorisation; a new reference is factorised only when the
-rank ``r = |J|`` exceeds :data:`REFACTOR_FRACTION` of the active system's size.  A small pool
-of references (:data:`POOL`) serves the two kinds of matrices of an increment: the elastic
-predictor (previously active pairs stick) and the converged-type sets (with slip).  One step
+two solves with the reference factors, products with the active columns of C
+(``O(n n_active)``), one more solve per newly changed row (cached per reference) and
+``O(r^2 N)`` for the capacitance matrix, instead of an ``O(N_active^3)`` factorisation; a
+new reference is factorised only when the rank ``r = |J|`` exceeds
+:data:`REFACTOR_FRACTION` of the active system's size.  A small pool of references
+(:data:`POOL`) serves the two kinds of matrices of an increment: the elastic predictor
+(previously active pairs stick) and the converged-type sets (with slip).  One step
 of iterative refinement with the exact matrix follows every solve (as with the dense LU
 before: the penalty terms 1/(w k) next to a stiff compliance need it).
 """

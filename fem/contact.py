@@ -16,7 +16,8 @@ Constitutive laws per candidate pair j (tributary length w_j):
 
 The laws are piecewise linear in (lam, z), so the semi-smooth Newton method with the
 consistent tangent is the primal-dual active-set iteration: fix the sets
-(open / stick / slip+sign), solve the small dense linear system, re-classify, stop
+(open / stick / slip+sign), solve the small dense linear system (``fem.activeset``: a
+low-rank update of a reference factorisation, not a new one per iteration), re-classify, stop
 when the sets repeat and the law residual is below tolerance.
 """
 
