@@ -151,7 +151,7 @@ def fem_surface(hist: fem.FemHistory, step, window) -> tuple[np.ndarray, np.ndar
     x, y = body2_xy(hist)
     row = np.flatnonzero((y == 0) & (x >= window[0]) & (x <= window[1]))
     row = row[np.argsort(x[row])]
-    return x[row], hist.stress(step)[1][0, row]
+    return x[row], hist.body_stress(step, 1)[0, row]
 
 
 def analytic_surface(sol, window) -> tuple[np.ndarray, np.ndarray]:
@@ -225,7 +225,7 @@ def compare_state(case: Case, hist: fem.FemHistory, stage: int, Q: float, sol, n
     """Subsurface error and, per zone, the surface peaks of one state."""
     step = fem_step(hist, stage, Q)
     x, y, w = nodes
-    fe = hist.stress(step)[1][:, keep]
+    fe = hist.body_stress(step, 1)[:, keep]
     l2, shape = subsurface_error(fe, analytic.stress(sol, x[keep], y[keep], nu=case.nu), w[keep])
     zones = an_normal(sol).zones
     window = surface_window(an_normal(sol))

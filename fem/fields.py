@@ -73,9 +73,13 @@ class FieldRecovery:
 
     def stress(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Nodal (L2-projected) stresses (sxx, syy, sxy, szz) of both bodies at increment i."""
-        if i not in self._stress:
-            self._stress[i] = tuple(self._body_stress(b, i) for b in (0, 1))
-        return self._stress[i]
+        return self.body_stress(i, 0), self.body_stress(i, 1)
+
+    def body_stress(self, i: int, body: int) -> np.ndarray:
+        """Nodal stresses of one body (0: body 1, 1: body 2) at increment i (computed once)."""
+        if (i, body) not in self._stress:
+            self._stress[i, body] = self._body_stress(body, i)
+        return self._stress[i, body]
 
     def _body_stress(self, body: int, i: int) -> np.ndarray:
         """Plane-strain stress of one body projected onto its scalar nodal basis."""

@@ -112,6 +112,10 @@ class FemHistory:
         """Nodal-projected stress (sxx, syy, sxy, szz) per body, shape (4, n_points)."""
         return self.fields.stress(step.index)
 
+    def body_stress(self, step: FemStep, body: int) -> np.ndarray:
+        """Nodal-projected stress (sxx, syy, sxy, szz) of one body (0: body 1, 1: body 2)."""
+        return self.fields.body_stress(step.index, body)
+
 
 @dataclass(frozen=True)
 class Model:
