@@ -104,6 +104,13 @@ def rhs(prob: InterfaceProblem, sets: Sets, old, load: Load, pbar: np.ndarray) -
     return b
 
 
+def open_scale(prob: InterfaceProblem) -> np.ndarray:
+    """``c``: the coefficient of an open row, ``|C_jj|`` (1 where it is zero), so that open
+    rows are scaled like the compliance rows (C is SPD up to the far-field's low-rank term)."""
+    c = np.abs(np.diag(prob.C))
+    return np.where(c > 0, c, 1.0)
+
+
 def rows(prob: InterfaceProblem, sets: Sets, idx: np.ndarray) -> np.ndarray:
     """Rows ``idx`` of the full matrix, dense ``(idx.size, N)``."""
     n = prob.n
@@ -118,7 +125,7 @@ def rows(prob: InterfaceProblem, sets: Sets, idx: np.ndarray) -> np.ndarray:
     out[ic, 2 * n :] = prob.plate_matrix()[jc]
     out[ic, jc] += 1.0 / (prob.w[jc % n] * np.where(jc < n, prob.k_t, prob.k_n))
     op = st == OPEN
-    out[i[op], j[op]] = np.diag(prob.C)[j[op]]
+    out[i[op], j[op]] = open_scale(prob)[j[op]]
     slip = tang & (st == SLIP)
     out[i[slip], j[slip]] = 1.0
     out[i[slip], j[slip] + n] = -prob.mu * sets.sign[j[slip]]
@@ -142,7 +149,7 @@ def matvec(prob: InterfaceProblem, sets: Sets, X: np.ndarray) -> np.ndarray:
     lam, z = X[: 2 * n], X[2 * n :]
     st = sets.status
     col = (slice(None),) + (None,) * (X.ndim - 1)
-    diag = np.diag(prob.C)
+    diag = open_scale(prob)
     out = np.empty_like(X)
     out[: 2 * n] = diag[col] * lam
     slip = np.flatnonzero(st == SLIP)
@@ -209,7 +216,7 @@ class Reference:
 
     def solve(self, prob: InterfaceProblem, B: np.ndarray) -> np.ndarray:
         """``A0^{-1} B`` by block back-substitution (B: (N,) or (N, k))."""
-        diag = np.diag(prob.C)
+        diag = open_scale(prob)
         X = np.zeros_like(B)
         X[self.opn] = B[self.opn] / (diag[self.opn] if B.ndim == 1 else diag[self.opn, None])
         a12x = matvec(prob, self.sets, X)[self.act] if self.opn.size else 0.0
