@@ -50,9 +50,9 @@ OPEN, STICK, SLIP = 0, 1, 2
 
 #: A new reference factorisation is made when more rows than this fraction of the current
 #: active system's size (and more than REFACTOR_MIN_RANK) differ from every reference
-#: (cattaneo level 3, n = 583, 204 Newton systems: 15 / 7 / 5 factorisations at 1/8, 1/4,
-#: 1/2; the capacitance work O(r^2 N) grows with the fraction, the factorisations O(N^3)
-#: fall: 1/4 balances them at n ~ 5k).
+#: (cattaneo level 3, n = 583, 204 Newton systems: 15 / 7 / 5 factorisations and 1.16 /
+#: 1.39 / 1.71 s CPU at 1/8, 1/4, 1/2; the factorisations grow like N^3, the capacitance
+#: work like r^2 N, so the larger fraction is meant for larger n: not measured beyond n = 583).
 REFACTOR_FRACTION = 0.25
 #: Below this rank an update is always used (tiny systems: factorising is cheap anyway).
 REFACTOR_MIN_RANK = 8
@@ -225,6 +225,8 @@ class Reference:
 
     def block(self, prob: InterfaceProblem, J: np.ndarray) -> np.ndarray:
         """``W = A0^{-1} E_J`` (N, |J|), new columns solved in one blocked solve."""
+        if len(self.columns) > self.kinds.size // 2:  # rows that differed once: forget them
+            self.columns = {int(j): self.columns[int(j)] for j in J if int(j) in self.columns}
         new = np.array([j for j in J if j not in self.columns], dtype=np.int64)
         if new.size:
             E = np.zeros((self.kinds.size, new.size))
