@@ -28,7 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from skfem import BilinearForm, asm
 
 import analytic
 import fem
@@ -37,6 +36,7 @@ from compare._memo import memo
 from compare.analytic_side import AnalyticResult
 from compare.cases import Case
 from compare.fem_side import kinks
+from fem.bulk import mass_matrix
 
 NAN = float("nan")
 #: The metrics of :func:`stress_metrics`.
@@ -83,11 +83,6 @@ class StressRow:
 # ---------------------------------------------------------------------------------------------
 # FE body-2 nodes
 # ---------------------------------------------------------------------------------------------
-@BilinearForm
-def _mass(u, v, w):
-    return u * v
-
-
 def body2_xy(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray]:
     """``(x, y)`` of body 2's stress nodes (no assembly: for callers that need no weights)."""
     sb = hist.fields.disc.scalar_bases[1]
@@ -96,7 +91,7 @@ def body2_xy(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray]:
 
 def body2_nodes(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(x, y, w)`` of body 2's stress nodes, ``w`` the lumped-mass (area) weights."""
-    w = np.asarray(asm(_mass, hist.fields.disc.scalar_bases[1]).sum(axis=1)).ravel()
+    w = np.asarray(mass_matrix(hist.fields.disc.scalar_bases[1]).sum(axis=1)).ravel()
     return (*body2_xy(hist), w)
 
 
@@ -156,7 +151,7 @@ def fem_surface(hist: fem.FemHistory, step, window) -> tuple[np.ndarray, np.ndar
     x, y = body2_xy(hist)
     row = np.flatnonzero((y == 0) & (x >= window[0]) & (x <= window[1]))
     row = row[np.argsort(x[row])]
-    return x[row], hist.stress(step)[1][0, row]
+    return x[row], hist.body_stress(step, 1)[0, row]
 
 
 def analytic_surface(sol, window) -> tuple[np.ndarray, np.ndarray]:
@@ -230,7 +225,7 @@ def compare_state(case: Case, hist: fem.FemHistory, stage: int, Q: float, sol, n
     """Subsurface error and, per zone, the surface peaks of one state."""
     step = fem_step(hist, stage, Q)
     x, y, w = nodes
-    fe = hist.stress(step)[1][:, keep]
+    fe = hist.body_stress(step, 1)[:, keep]
     l2, shape = subsurface_error(fe, analytic.stress(sol, x[keep], y[keep], nu=case.nu), w[keep])
     zones = an_normal(sol).zones
     window = surface_window(an_normal(sol))

@@ -76,9 +76,54 @@ def plane_strain_elasticity(E: float, nu: float):
 
 
 def stiffness(mesh: MeshQuad, order: int, E: float, nu: float) -> tuple[Basis, sp.csr_matrix]:
-    """Vector basis and plane-strain stiffness matrix of one body."""
+    """Vector basis and plane-strain stiffness matrix of one body (the form
+    :func:`plane_strain_elasticity`, assembled by :func:`elasticity_matrix`)."""
     basis = Basis(mesh, ElementVector(ELEMENTS[order]()))
-    return basis, asm(plane_strain_elasticity(E, nu), basis).tocsr()
+    return basis, elasticity_matrix(Basis(mesh, ELEMENTS[order]()), E, nu)
+
+
+#: Elements per block of the vectorised element kernel (memory ~ 8 (2 n_loc)^2 bytes each).
+ELEMENT_BLOCK = 20000
+
+
+def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
+    """Plane-strain stiffness in the vector numbering ``2 * scalar dof + component``, from the
+    scalar basis gradients in one vectorised kernel (the bilinear form of
+    :func:`plane_strain_elasticity`, ``sigma(u) : eps(v)``, without its per-entry Python
+    loop): with ``D_ab^kl = int d_k phi_a d_l phi_b``,
+    ``K[(a, i), (b, j)] = lam D_ab^ij + mu D_ab^ji + mu delta_ij (D_ab^00 + D_ab^11)``."""
+    lam, mu = lame_parameters(E, nu)
+    grads = np.array([phi[0].grad for phi in scalar.basis])  # (n_loc, 2, n_el, n_qp)
+    dofs = scalar.element_dofs  # (n_loc, n_el)
+    n_loc, n_el = dofs.shape
+    eye = np.eye(2)
+    parts = []
+    for e0 in range(0, n_el, ELEMENT_BLOCK):
+        sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
+        g = grads[:, :, sl]
+        D = np.einsum("akeq,bleq,eq->eabkl", g, g, scalar.dx[sl], optimize=True)
+        trace = D[..., 0, 0] + D[..., 1, 1]
+        Ke = (
+            lam * D + mu * D.transpose(0, 1, 2, 4, 3) + mu * trace[..., None, None] * eye
+        )  # (e, a, b, i, j)
+        vec = 2 * dofs[:, sl].T[:, :, None] + np.arange(2)  # (e, a, i)
+        rows = np.broadcast_to(vec[:, :, None, :, None], Ke.shape)
+        cols = np.broadcast_to(vec[:, None, :, None, :], Ke.shape)
+        parts.append((Ke.ravel(), rows.ravel(), cols.ravel()))
+    data, r, c = (np.concatenate(x) for x in zip(*parts, strict=True))
+    n = 2 * scalar.N
+    return sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr()
+
+
+def mass_matrix(scalar: Basis) -> sp.csr_matrix:
+    """Scalar mass matrix ``M_ab = int phi_a phi_b`` (vectorised, as :func:`elasticity_matrix`)."""
+    phi = np.array([p[0].value for p in scalar.basis])  # (n_loc, n_el, n_qp)
+    Me = np.einsum("aeq,beq,eq->eab", phi, phi, scalar.dx, optimize=True)
+    dofs = scalar.element_dofs.T  # (n_el, n_loc)
+    rows = np.broadcast_to(dofs[:, :, None], Me.shape)
+    cols = np.broadcast_to(dofs[:, None, :], Me.shape)
+    n = scalar.N
+    return sp.coo_matrix((Me.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n)).tocsr()
 
 
 def facets_on(mesh: MeshQuad, nodes: np.ndarray) -> np.ndarray:
@@ -93,10 +138,11 @@ def unit_traction(v, w):
     return v
 
 
-def interface_side(mesh: MeshQuad, nodes: np.ndarray, order: int):
-    """Scalar interface dofs of one body, sorted by x, with their weights."""
+def interface_side(mesh: MeshQuad, nodes: np.ndarray, order: int, scalar: Basis | None = None):
+    """Scalar interface dofs of one body, sorted by x, with their weights (``scalar``: the
+    body's scalar basis, built if None)."""
     facets = facets_on(mesh, nodes)
-    scalar = Basis(mesh, ELEMENTS[order]())
+    scalar = scalar or Basis(mesh, ELEMENTS[order]())
     dofs = scalar.get_dofs(facets).all()
     weights = asm(unit_traction, FacetBasis(mesh, ELEMENTS[order](), facets=facets))
     x = scalar.doflocs[0, dofs]
@@ -119,9 +165,12 @@ def discretise(
     boundary: 'clamped' (body 1's top and body 2's bottom fixed, the sides free) or
     'half-plane' (every boundary dof off y = 0 fixed; fem.farfield prescribes it).
     """
-    (b1, K1), (b2, K2) = (stiffness(m, order, E, nu) for m in mesh.bodies)
-    x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order)
-    x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order)
+    scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
+    # the vector bases share the scalar ones' mapping and quadrature (no second set-up)
+    b1, b2 = (s.with_element(ElementVector(ELEMENTS[order]())) for s in scalars)
+    K1, K2 = (elasticity_matrix(s, E, nu) for s in scalars)
+    x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order, scalars[0])
+    x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order, scalars[1])
     if boundary == "half-plane":
         fixed = tuple(
             b.get_dofs(outer_facets(m)).all() for b, m in zip((b1, b2), mesh.bodies, strict=True)
@@ -132,7 +181,6 @@ def discretise(
             b2.get_dofs(facets_on(mesh.bodies[1], mesh.nodes["bottom"])).all(),
         )
     iface = Interface(x=0.5 * (x1 + x2), w=0.5 * (w1 + w2), dof1=d1, dof2=d2)
-    scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
     return Discretisation(
         mesh=mesh,
         order=order,
@@ -170,6 +218,7 @@ __all__ = [
     "Interface",
     "discretise",
     "free_dofs",
+    "mass_matrix",
     "reduced_stiffness",
     "stiffness",
     "plane_strain_elasticity",

@@ -6,12 +6,14 @@ rigid motion being stress free) and the bottom of body 2 clamped, a pair force
 ``d = u1 - u2 = C lam`` at the candidate pairs, ``C = E^T K^{-1} E`` with
 ``E = [+I on body-1 pair dofs; -I on body-2 pair dofs]``.
 
-Two ways to get C from ONE factorisation:
-- CHOLMOD: order the pair dofs last (fill-reducing AMD/METIS ordering of the rest),
-  factorise ``K = L L^T``; the trailing block ``L22`` of the factor gives the Schur
-  complement ``S = L22 L22^T`` on the pair dofs and ``C = E^T S^{-1} E`` (no extra
-  solves at all);
-- other backends: blocked multi-RHS solves ``K^{-1} E``.
+Two ways to get C from ONE factorisation per body:
+- CHOLMOD: the bodies are uncoupled in K (block diagonal), so ``C = C1 + C2`` with
+  ``C_b = (K_b^{-1})`` on body b's pair dofs. Per body, order the pair dofs last
+  (fill-reducing ordering of the rest), factorise ``K_b = L L^T``; the trailing block
+  ``L22`` (2n x 2n) of the factor is the Cholesky factor of the Schur complement
+  ``S_b = L22 L22^T`` and ``C_b = S_b^{-1}`` is formed in place from it (LAPACK
+  ``potri``, no extra sparse solves, no dense block larger than 2n x 2n);
+- other backends (or bodies coupled in K): blocked multi-RHS solves ``K^{-1} E``.
 All contact iterations then work with the small dense C.
 
 Ordering of pair quantities: ``[t_0 .. t_{n-1}, n_0 .. n_{n-1}]`` (tangential x
@@ -22,9 +24,11 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg import solve_triangular
+from scipy.linalg.lapack import dpotri
+from scipy.sparse.csgraph import connected_components
 
 from .bulk import Discretisation
+from .errors import ConvergenceError
 from .linsolve import Factor, available_backends, factorize
 
 #: Right-hand sides per blocked solve (memory vs BLAS-3 efficiency).
@@ -76,33 +80,67 @@ def compliance(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
     return 0.5 * (C + C.T)
 
 
-def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Factor, np.ndarray]:
-    """CHOLMOD factor with the pair dofs ordered last; C from the trailing factor block."""
-    from sksparse.cholmod import analyze, cholesky
+def body_blocks(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray):
+    """Free dofs of body 1 (the connected blocks of K holding f1) and of the rest, or None if
+    some block holds pair dofs of both sides (the bodies are coupled in K)."""
+    _, labels = connected_components(K, directed=False)
+    l1 = np.unique(labels[f1])
+    if np.isin(labels[f2], l1).any():
+        return None
+    in1 = np.isin(labels, l1)
+    return np.flatnonzero(in1), np.flatnonzero(~in1)
 
-    gamma = np.r_[f1, f2]
-    inner = np.setdiff1d(np.arange(K.shape[0]), gamma)
-    perm = np.r_[inner[analyze(K[inner][:, inner].tocsc()).P()], gamma]
-    chol = cholesky(K[perm][:, perm].tocsc(), ordering_method="natural")
-    m = gamma.size
-    L22 = chol.L()[-m:, -m:].toarray()
-    # S = L22 L22^T, C = E^T S^-1 E = Y^T Y with Y = L22^-1 E (one triangular solve: ~4x
-    # fewer flops than forming S and solving with it, and C symmetric by construction)
-    Y = solve_triangular(L22, np.r_[np.eye(f1.size), -np.eye(f1.size)], lower=True)
-    C = Y.T @ Y
+
+def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Factor, np.ndarray]:
+    """CHOLMOD factor per body with its pair dofs ordered last; C from the trailing blocks."""
+    blocks = body_blocks(K, f1, f2)
+    if blocks is None:
+        factor = factorize(K, "cholmod")
+        return factor, compliance(factor, f1, f2)
+    parts, C = [], None
+    for idx, pairs in zip(blocks, (f1, f2), strict=True):
+        local = np.searchsorted(idx, pairs)
+        chol, perm, Cb = body_compliance(K[idx][:, idx].tocsc(), local)
+        parts.append((idx, perm, chol))
+        C = Cb if C is None else np.add(C, Cb, out=C)
+        del Cb
+    mirror_lower(C)
 
     def solve(b: np.ndarray) -> np.ndarray:
-        out = np.empty_like(np.asarray(b, dtype=float))
-        out[perm] = chol(np.asarray(b, dtype=float)[perm])
+        b = np.asarray(b, dtype=float)
+        out = np.empty_like(b)
+        for idx, perm, chol in parts:
+            x = np.empty_like(b[idx])
+            x[perm] = chol(b[idx][perm])
+            out[idx] = x
         return out
 
-    def solve_pairs(lam: np.ndarray) -> np.ndarray:
-        # loads live on the trailing block only: forward substitution = L22^{-1} b_gamma
-        y = np.zeros((K.shape[0], lam.shape[1]))
-        y[-m:] = solve_triangular(L22, np.r_[lam, -lam], lower=True)
-        out = np.empty_like(y)
-        out[perm] = chol.solve_Lt(y, use_LDLt_decomposition=False)
-        return out
+    return Factor(backend="cholmod", solve=solve, n=K.shape[0]), C
 
-    factor = Factor(backend="cholmod", solve=solve, n=K.shape[0], solve_pairs=solve_pairs)
-    return factor, C
+
+def body_compliance(Kb: sp.csc_matrix, gamma: np.ndarray):
+    """``(chol, perm, C_b)`` of one body: CHOLMOD factor of ``Kb[perm][:, perm]`` with the pair
+    dofs ``gamma`` last, and ``C_b = (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing
+    factor block ``L22`` (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri."""
+    from sksparse.cholmod import analyze, cholesky
+
+    inner = np.setdiff1d(np.arange(Kb.shape[0]), gamma)
+    perm = np.r_[inner[analyze(Kb[inner][:, inner].tocsc()).P()], gamma]
+    chol = cholesky(Kb[perm][:, perm].tocsc(), ordering_method="natural")
+    m = gamma.size
+    L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
+    Cb, info = dpotri(L22, lower=1, overwrite_c=1)
+    if info != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK potri failed (info={info})")
+    return chol, perm, Cb
+
+
+def mirror_lower(A: np.ndarray) -> None:
+    """Copy the strict lower triangle of the square A onto its upper one, in place, by row
+    blocks (potri fills the lower triangle only; the upper one of L22 is zero)."""
+    m = A.shape[0]
+    for r0 in range(0, m, RHS_BLOCK):
+        r1 = min(r0 + RHS_BLOCK, m)
+        A[r0:r1, r1:] = A[r1:, r0:r1].T
+        d = A[r0:r1, r0:r1]
+        d[np.triu_indices(r1 - r0, 1)] = d.T[np.triu_indices(r1 - r0, 1)]

@@ -16,7 +16,8 @@ Constitutive laws per candidate pair j (tributary length w_j):
 
 The laws are piecewise linear in (lam, z), so the semi-smooth Newton method with the
 consistent tangent is the primal-dual active-set iteration: fix the sets
-(open / stick / slip+sign), solve the small dense linear system, re-classify, stop
+(open / stick / slip+sign), solve the small dense linear system (``fem.activeset``: a
+low-rank update of a reference factorisation, not a new one per iteration), re-classify, stop
 when the sets repeat and the law residual is below tolerance.
 """
 
@@ -25,9 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
 
-OPEN, STICK, SLIP = 0, 1, 2
+from .activeset import OPEN, SLIP, STICK, ActiveSetSolver, NotConverged, make_sets, rhs
 
 
 @dataclass(frozen=True)
@@ -90,10 +90,6 @@ class ContactState:
     iterations: int = 0
 
 
-class NotConverged(Exception):
-    """Internal: the active-set iteration of one (sub)increment failed."""
-
-
 def initial_state(prob: InterfaceProblem, M0: float | None) -> ContactState:
     """Unloaded state: zero forces and displacements, everything open."""
     n = prob.n
@@ -154,62 +150,17 @@ def law_residual(prob: InterfaceProblem, old: ContactState, lam, d, load: Load, 
     return float(max(laws, equil))
 
 
-def active_system(prob: InterfaceProblem, old: ContactState, status, sign, load: Load, pbar):
-    """Dense linear system of the active pairs and plate DOFs for fixed sets."""
-    n, a = prob.n, np.flatnonzero(status > OPEN)
-    na, nz = a.size, prob.n_plate
-    rows = np.r_[a, a + n]
-    Ca = prob.C[np.ix_(rows, rows)]
-    Ba = prob.plate_matrix()[rows]
-    A = np.zeros((2 * na + nz, 2 * na + nz))
-    b = np.zeros(2 * na + nz)
-    A[: 2 * na, : 2 * na] = Ca
-    A[: 2 * na, 2 * na :] = Ba
-    idx = np.arange(na)
-    A[na + idx, na + idx] += 1.0 / (prob.w[a] * prob.k_n)
-    b[na : 2 * na] = pbar[a] / prob.k_n - prob.h0[a]
-    A[idx, idx] += 1.0 / (prob.w[a] * prob.k_t)
-    b[:na] = old.lam[a] / (prob.w[a] * prob.k_t) + old.d[a]
-    slip = np.flatnonzero(status[a] == SLIP)
-    A[slip] = 0.0
-    A[slip, slip] = 1.0
-    A[slip, na + slip] = -prob.mu * sign[a][slip]
-    b[slip] = 0.0
-    if np.any(status[a] == STICK):
-        A[2 * na, :na] = 1.0
-        b[2 * na] = -load.Q
-    else:
-        A[2 * na, 2 * na] = 1.0
-        b[2 * na] = old.z[0]
-    A[2 * na + 1, na : 2 * na] = 1.0
-    b[2 * na + 1] = load.P
-    if not prob.lock_theta:
-        A[2 * na + 2, na : 2 * na] = prob.x[a]
-        b[2 * na + 2] = load.M
-    return A, b, a
-
-
-def solve_sets(prob: InterfaceProblem, old: ContactState, status, sign, load: Load, pbar):
-    """Forces, plate DOFs and relative displacement for fixed active sets."""
-    A, b, a = active_system(prob, old, status, sign, load, pbar)
-    try:
-        lu = lu_factor(A, check_finite=False)
-    except (np.linalg.LinAlgError, ValueError) as exc:
-        raise NotConverged(f"singular active-set system ({a.size} active pairs)") from exc
-    if not np.all(np.isfinite(lu[0])) or np.any(np.diag(lu[0]) == 0):
-        raise NotConverged(f"singular active-set system ({a.size} active pairs)")
-    y = lu_solve(lu, b, check_finite=False)
-    # one step of iterative refinement: the penalty terms 1/(w k) next to a stiff compliance
-    # (sharp corners, rotation free) left law residuals of ~1.1e-10 (punch beside a cylinder
-    # under a moment, level 1), just above the tolerance, in every sub-increment
-    y += lu_solve(lu, b - A @ y, check_finite=False)
-    n, na = prob.n, a.size
-    lam = np.zeros(2 * n)
-    lam[a], lam[a + n] = y[:na], y[na : 2 * na]
+def solve_sets(
+    solver: ActiveSetSolver, old: ContactState, status, sign, load: Load, pbar
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Forces, plate DOFs and relative displacement for fixed active sets (the linear system
+    of ``fem.activeset``, solved by low-rank updates of reference factorisations)."""
+    prob = solver.prob
+    sets = make_sets(status, sign)
+    x, d = solver.solve(sets, rhs(prob, sets, old, load, pbar))
     z = np.zeros(3)
-    z[: prob.n_plate] = y[2 * na :]
-    d = prob.C[:, np.r_[a, a + n]] @ y[: 2 * na] + prob.plate_matrix() @ y[2 * na :]
-    return lam, z, d
+    z[: prob.n_plate] = x[2 * prob.n :]
+    return x[: 2 * prob.n], z, d
 
 
 FIRST_MOMENT_PAIRS = 3  # rotation free: a moment needs >= 2 pairs to be carried at all
@@ -239,13 +190,16 @@ def solve_increment(
     pbar: np.ndarray,
     tol: float,
     max_iter: int,
+    solver: ActiveSetSolver | None = None,
 ) -> ContactState:
-    """Semi-smooth Newton (active-set) iteration for one load increment."""
+    """Semi-smooth Newton (active-set) iteration for one load increment (``solver``: the
+    history's reference factorisations, a fresh one if None)."""
+    solver = solver or ActiveSetSolver(prob)
     status = first_guess(prob, old, load)
     sign = np.sign(old.lam[: prob.n])
     seen = set()
     for it in range(1, max_iter + 1):
-        lam, z, d = solve_sets(prob, old, status, sign, load, pbar)
+        lam, z, d = solve_sets(solver, old, status, sign, load, pbar)
         new_status, new_sign = classify(prob, old, d, pbar)
         if not np.any(new_status):
             new_status[np.argmin(prob.h0 + d[prob.n :])] = STICK
@@ -271,18 +225,26 @@ def penetration(prob: InterfaceProblem, state: ContactState) -> float:
 
 
 def solve_augmented(
-    prob: InterfaceProblem, old: ContactState, load: Load, settings
+    prob: InterfaceProblem,
+    old: ContactState,
+    load: Load,
+    settings,
+    solver: ActiveSetSolver | None = None,
 ) -> ContactState:
-    """One increment; with ``settings.augmented`` Uzawa updates until penetration <= pen_tol."""
+    """One increment; with ``settings.augmented`` Uzawa updates until penetration <= pen_tol
+    (``solver``: as in :func:`solve_increment`)."""
+    solver = solver or ActiveSetSolver(prob)
     pbar = old.lam[prob.n :] / prob.w if settings.augmented else np.zeros(prob.n)
-    state = solve_increment(prob, old, load, pbar, settings.newton_tol, settings.max_newton)
+    state = solve_increment(prob, old, load, pbar, settings.newton_tol, settings.max_newton, solver)
     if not settings.augmented:
         return state
     for _ in range(settings.max_uzawa):
         if penetration(prob, state) <= settings.pen_tol:
             return state
         pbar = state.lam[prob.n :] / prob.w
-        state = solve_increment(prob, old, load, pbar, settings.newton_tol, settings.max_newton)
+        state = solve_increment(
+            prob, old, load, pbar, settings.newton_tol, settings.max_newton, solver
+        )
     if penetration(prob, state) <= settings.pen_tol:
         return state
     raise NotConverged(

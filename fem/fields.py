@@ -10,18 +10,20 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
-from scipy.sparse.linalg import splu
-from skfem import BilinearForm, asm
 from skfem.helpers import sym_grad
 
+from .bulk import mass_matrix
 from .condense import pair_loads
+from .linsolve import factorize
 
 
 class FieldRecovery:
     """Displacements of both bodies for all increments; stresses computed lazily."""
 
-    def __init__(self, disc, U1: np.ndarray, U2: np.ndarray):
+    def __init__(self, disc, U1: np.ndarray, U2: np.ndarray, backend: str = "auto"):
         self.disc = disc
+        #: Sparse backend of the stress projections (the bulk's: CHOLMOD when available).
+        self.backend = backend
         self.U = (U1, U2)
         K1 = disc.stiffness[0]
         F1 = K1 @ U1
@@ -41,10 +43,7 @@ class FieldRecovery:
         """Recover the full fields of a list of converged contact states."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
-        if model.factor.solve_pairs is not None:
-            Uf = model.factor.solve_pairs(lam)
-        else:
-            Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
+        Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
         N1 = disc.bases[0].N
         U = np.zeros((disc.n_dofs, lam.shape[1]))
         U[model.free] = Uf
@@ -57,7 +56,7 @@ class FieldRecovery:
         rigid_u = z[0][None, :] - loc[1][:, None] * z[2][None, :]
         rigid_v = z[1][None, :] + loc[0][:, None] * z[2][None, :]
         U1 = U1 + np.where(even[:, None], rigid_u, rigid_v)
-        return cls(disc, U1, U2)
+        return cls(disc, U1, U2, model.factor.backend)
 
     def displacement(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Displacement dof vectors (body 1, body 2) of increment i."""
@@ -74,9 +73,13 @@ class FieldRecovery:
 
     def stress(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Nodal (L2-projected) stresses (sxx, syy, sxy, szz) of both bodies at increment i."""
-        if i not in self._stress:
-            self._stress[i] = tuple(self._body_stress(b, i) for b in (0, 1))
-        return self._stress[i]
+        return self.body_stress(i, 0), self.body_stress(i, 1)
+
+    def body_stress(self, i: int, body: int) -> np.ndarray:
+        """Nodal stresses of one body (0: body 1, 1: body 2) at increment i (computed once)."""
+        if (i, body) not in self._stress:
+            self._stress[i, body] = self._body_stress(body, i)
+        return self._stress[i, body]
 
     def _body_stress(self, body: int, i: int) -> np.ndarray:
         """Plane-strain stress of one body projected onto its scalar nodal basis."""
@@ -92,13 +95,11 @@ class FieldRecovery:
             lam * tr,
         )
         if body not in self._mass:  # one factorisation per body for every projection
-            self._mass[body] = (splu(asm(_MASS, scalar).tocsc()), load_operator(scalar))
+            mass = factorize(mass_matrix(scalar), self.backend)
+            self._mass[body] = (mass, load_operator(scalar))
         mass, load = self._mass[body]
         rhs = load @ np.stack([np.asarray(c).ravel() for c in comps], axis=1)
         return mass.solve(rhs).T
-
-
-_MASS = BilinearForm(lambda u, v, w: u * v)
 
 
 def load_operator(scalar) -> csr_matrix:

@@ -8,13 +8,15 @@ field of every increment -> plate reactions checked against (P, Q, M).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from ._validate import check_scalars, check_settings
+from .activeset import ActiveSetSolver
 from .bulk import Discretisation, discretise, free_dofs, reduced_stiffness
 from .condense import condense, pair_dofs
 from .contact import (
@@ -55,10 +57,12 @@ class FemHistory:
 
     steps: all increments in load order. n_dofs: displacement dofs of both bodies.
     order: element order. backend: sparse solver that ran ('cholmod', 'pypardiso'
-    or 'scipy-splu'). timings: seconds for 'assembly' (mesh + stiffness),
+    or 'scipy-splu'). timings: wall-clock seconds for 'mesh' (build or read), 'assembly'
+    (stiffness matrices and interface),
     'factorisation+condensation' (the one factorisation and the interface
     compliance), 'increments' (all contact solves), 'recovery' (full fields and
-    reaction checks of all increments) and 'history' (everything after assembly).
+    reaction checks of all increments) and 'history' (everything after assembly);
+    ``timings['cpu']``: the same phases in process CPU seconds.
     mu, E, nu, P0, Q0: the inputs. h_min: finest
     interface element length. n_candidates: interface pairs in the contact model.
     fields: the body-field recovery (displacements, stresses); None for an interface-only
@@ -107,6 +111,10 @@ class FemHistory:
     def stress(self, step: FemStep) -> tuple[np.ndarray, np.ndarray]:
         """Nodal-projected stress (sxx, syy, sxy, szz) per body, shape (4, n_points)."""
         return self.fields.stress(step.index)
+
+    def body_stress(self, step: FemStep, body: int) -> np.ndarray:
+        """Nodal-projected stress (sxx, syy, sxy, szz) of one body (0: body 1, 1: body 2)."""
+        return self.fields.body_stress(step.index, body)
 
 
 @dataclass(frozen=True)
@@ -198,14 +206,13 @@ def build_model(
     if cand.size < 2:
         raise InputError("h0 is infinite at (nearly) all interface nodes: no contact is possible")
     f1, f2 = pair_dofs(disc, index, cand)
-    t0 = time.perf_counter()
-    factor, C = condense(reduced_stiffness(disc, free), f1, f2, backend)
-    far = None
-    if disc.boundary == "half-plane":
-        far = lift(disc, factor, free, x[cand])
-        lifted = far.fields[free]
-        C = C + (lifted[f1] - lifted[f2]) @ far.R
-    timings["factorisation+condensation"] = time.perf_counter() - t0
+    with timed(timings, "factorisation+condensation"):
+        factor, C = condense(reduced_stiffness(disc, free), f1, f2, backend)
+        far = None
+        if disc.boundary == "half-plane":
+            far = lift(disc, factor, free, x[cand])
+            lifted = far.fields[free]
+            C = C + (lifted[f1] - lifted[f2]) @ far.R
     prob = InterfaceProblem(
         C=C,
         x=x[cand],
@@ -249,7 +256,12 @@ def blend(a: Load, b: Load, f: float) -> Load:
 
 
 def advance(
-    prob: InterfaceProblem, old: ContactState, target: Load, contact: ContactSettings, stage: int
+    prob: InterfaceProblem,
+    old: ContactState,
+    target: Load,
+    contact: ContactSettings,
+    stage: int,
+    solver: ActiveSetSolver,
 ) -> ContactState:
     """Reach ``target`` from ``old``, halving the step on failure (up to max_cutbacks times)."""
     n_sub, last = 1, ""
@@ -257,7 +269,9 @@ def advance(
         state, its = old, 0
         try:
             for k in range(1, n_sub + 1):
-                state = solve_augmented(prob, state, blend(old.load, target, k / n_sub), contact)
+                state = solve_augmented(
+                    prob, state, blend(old.load, target, k / n_sub), contact, solver
+                )
                 its += state.iterations
             return replace(state, iterations=its)
         except NotConverged as exc:
@@ -274,9 +288,10 @@ def advance(
 def run_increments(prob: InterfaceProblem, schedule, contact: ContactSettings, M):
     """Converged states of all scheduled increments."""
     state = initial_state(prob, M)
+    solver = ActiveSetSolver(prob)
     states = []
     for stage, _, target in schedule:
-        state = advance(prob, state, target, contact, stage)
+        state = advance(prob, state, target, contact, stage, solver)
         states.append(state)
     return states
 
@@ -292,15 +307,25 @@ def check_zone_size(prob: InterfaceProblem, state: ContactState, h: float) -> No
             )
 
 
+@contextmanager
+def timed(timings: dict, key: str) -> Iterator[None]:
+    """Record the wall-clock seconds of the block as ``timings[key]`` and its process CPU
+    seconds as ``timings['cpu'][key]`` (on a shared machine the CPU time is the stable one)."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    yield
+    timings[key] = time.perf_counter() - t0
+    timings.setdefault("cpu", {})[key] = time.process_time() - c0
+
+
 def assemble_bodies(
     mesh, window, kinks, E: float, nu: float, timings: dict
 ) -> tuple[TwoBodyMesh, int, Discretisation]:
     """Build or read the mesh and assemble the bulk; return the mesh, the element order and
-    the discretisation (timed as 'assembly')."""
-    t0 = time.perf_counter()
-    tbm, order, boundary = resolve_mesh(mesh, window, kinks)
-    disc = discretise(tbm, order, E, nu, boundary)
-    timings["assembly"] = time.perf_counter() - t0
+    the discretisation (timed as 'mesh' and 'assembly')."""
+    with timed(timings, "mesh"):
+        tbm, order, boundary = resolve_mesh(mesh, window, kinks)
+    with timed(timings, "assembly"):
+        disc = discretise(tbm, order, E, nu, boundary)
     return tbm, order, disc
 
 
@@ -309,9 +334,8 @@ def solve_increments(
 ) -> list:
     """Converged states of all scheduled increments (timed as 'increments'); the contact
     zones at the end of stage 1 must be resolved (:func:`check_zone_size`)."""
-    t0 = time.perf_counter()
-    states = run_increments(prob, schedule, contact, M)
-    timings["increments"] = time.perf_counter() - t0
+    with timed(timings, "increments"):
+        states = run_increments(prob, schedule, contact, M)
     stage1_end = max(i for i, s in enumerate(schedule) if s[0] == 1)
     check_zone_size(prob, states[stage1_end], h)
     return states
@@ -322,13 +346,12 @@ def recover_steps(model: Model, schedule, states, P0: float, mu: float, timings:
     'recovery')."""
     from .fields import FieldRecovery
 
-    t0 = time.perf_counter()
-    fields = FieldRecovery.from_states(model, states)
-    steps = tuple(
-        make_step(model, i, sched, st, fields, P0, mu)
-        for i, (sched, st) in enumerate(zip(schedule, states, strict=True))
-    )
-    timings["recovery"] = time.perf_counter() - t0
+    with timed(timings, "recovery"):
+        fields = FieldRecovery.from_states(model, states)
+        steps = tuple(
+            make_step(model, i, sched, st, fields, P0, mu)
+            for i, (sched, st) in enumerate(zip(schedule, states, strict=True))
+        )
     return fields, steps
 
 
@@ -366,12 +389,11 @@ def solve_history(
     schedule = load_schedule(P0, Q0, M, increments or LoadPath())
     timings = {}
     tbm, order, disc = assemble_bodies(mesh, window, kinks, E, nu, timings)
-    t_hist = time.perf_counter()
-    settings = resolve_contact(contact, E, tbm.h_min)
-    model = build_model(disc, h0, mu, window, settings, M is None, backend, timings)
-    states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings)
-    fields, steps = recover_steps(model, schedule, states, P0, mu, timings)
-    timings["history"] = time.perf_counter() - t_hist
+    with timed(timings, "history"):
+        settings = resolve_contact(contact, E, tbm.h_min)
+        model = build_model(disc, h0, mu, window, settings, M is None, backend, timings)
+        states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings)
+        fields, steps = recover_steps(model, schedule, states, P0, mu, timings)
     hist = FemHistory(
         steps=steps,
         n_dofs=disc.n_dofs,

@@ -21,16 +21,11 @@ BACKENDS = ("cholmod", "pypardiso", "scipy-splu")
 
 @dataclass(frozen=True)
 class Factor:
-    """A factorised symmetric positive definite matrix; ``solve(B)`` accepts 1-D or 2-D B.
-
-    ``solve_pairs(lam)`` (optional fast path) solves for pair loads lam (+lam on the
-    body-1 pair dofs, -lam on body 2), 2-D with one column per load case.
-    """
+    """A factorised symmetric positive definite matrix; ``solve(B)`` accepts 1-D or 2-D B."""
 
     backend: str
     solve: Callable[[np.ndarray], np.ndarray]
     n: int
-    solve_pairs: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 def available_backends() -> tuple[str, ...]:

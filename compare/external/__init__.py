@@ -41,7 +41,7 @@ def write_result(hist, directory: str | Path, code: str = "multicontact fem", ca
     """Export a ``fem.FemHistory`` in the exchange format (manifest + one CSV per step); a
     folder holding files multicontact did not write is refused unless ``force``
     (:func:`compare.fileio.owned_output`)."""
-    seconds = hist.timings.get("assembly", 0.0) + hist.timings.get("history", 0.0)
+    seconds = sum(hist.timings.get(k, 0.0) for k in ("mesh", "assembly", "history"))
     meta = Meta(code=code, case=case, dofs=int(hist.n_dofs), order=int(hist.order),
                 seconds=float(seconds))
     return write_csv_result(hist, directory, meta, force)

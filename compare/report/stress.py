@@ -112,7 +112,7 @@ def contour_axes(res: CaseResult):
     aspect = max((x1 - x0) / d for x0, x1, d in boxes)
     fig, axes = zone_columns(len(zones), 2, (4.2, 2 * 4.0 / aspect + 2.2), layout="compressed")
     x, y = cs.body2_xy(res.fem)
-    s = res.fem.stress(cs.fem_step(res.fem, stage, Q))[1]
+    s = res.fem.body_stress(cs.fem_step(res.fem, stage, Q), 1)
     tau = np.hypot(0.5 * (s[0] - s[1]), s[2])
     for k, (x0, x1, depth) in enumerate(boxes):
         X, Y = np.meshgrid(np.linspace(x0, x1, GRID[0]), np.linspace(-depth, 0, GRID[1]))

@@ -85,22 +85,6 @@ def test_backends_agree_and_schur_equals_blocked_solves():
         assert np.allclose(K @ factor.solve(b), b, atol=1e-8 * np.abs(b).max())
 
 
-def test_pair_fast_path_equals_full_solve():
-    from fem.condense import pair_loads
-
-    m = build_mesh(fem.MeshSpec(level=-2), (-1.0, 1.0))
-    d = discretise(m, 1, 1.0, 0.3)
-    free, index = free_dofs(d)
-    K = reduced_stiffness(d, free)
-    f1, f2 = pair_dofs(d, index, np.flatnonzero(np.abs(d.interface.x) < 1.2))
-    factor, _ = condense(K, f1, f2, "auto")
-    if factor.solve_pairs is None:
-        pytest.skip("fast path only with CHOLMOD")
-    lam = np.random.default_rng(1).normal(size=(f1.size, 3))
-    full = factor.solve(pair_loads(K.shape[0], f1, f2, lam))
-    assert np.allclose(factor.solve_pairs(lam), full, rtol=1e-10, atol=1e-12 * np.abs(full).max())
-
-
 def test_history_identical_with_every_backend():
     a = np.sqrt(2 * 3.64 * 0.01 * 100 / np.pi)
     runs_ = [
