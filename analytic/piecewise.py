@@ -188,6 +188,13 @@ class Profile:
     def _features(self) -> np.ndarray:
         return np.array(sorted(set(self.kinks) | set(self.corners)), float)
 
+    @property
+    def features(self) -> np.ndarray:
+        """x of every kink and corner, sorted (read-only)."""
+        out = self._features.view()
+        out.flags.writeable = False
+        return out
+
     def feature_distance(self, x: np.ndarray) -> np.ndarray:
         """Distance from each x to the nearest kink or corner (``inf`` if there is none, or where
         x sits on one): the length over which h0 stays smooth around x."""
@@ -262,7 +269,7 @@ def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]
         xm = refine_minimum(pc, theta, xs[i - 1], xs[i + 1])
         out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
     for end, x_end, inner in ((0, pc.lo, f[1]), (-1, pc.hi, f[-2])):
-        if np.isfinite(x_end) and f[end] <= inner and _end_is_low(prof, k, end):
+        if np.isfinite(x_end) and f[end] <= inner and _end_is_low(prof, k, end, theta):
             xm = _inside_end_min(pc, theta, x_end, xs[1] if end == 0 else xs[-2])
             out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
     return out
@@ -297,10 +304,28 @@ def refine_minimum(pc: Piece, theta: float, a: float, b: float) -> float:
     return a if ga >= 0 else b
 
 
-def _end_is_low(prof: Profile, k: int, end: int) -> bool:
-    """A piece end is a candidate minimum only where the profile does not continue lower."""
-    x_end = prof.pieces[k].lo if end == 0 else prof.pieces[k].hi
-    return x_end in prof.corners or x_end in prof.kinks
+def _end_is_low(prof: Profile, k: int, end: int, theta: float) -> bool:
+    """A piece end is a candidate minimum only at a corner or kink where the profile does not
+    continue lower beyond it: no touching neighbour there (``h0 = +inf`` beyond), a step up to
+    the neighbour, or a neighbour that rises (tilted) going away from the joint.  At a kink where
+    ``h0 - theta x`` keeps rising or falling through the joint (a union's concave kink on a
+    flank: 257 of 740 random unions listed one) the end is no minimum (issue 29)."""
+    pc = prof.pieces[k]
+    x_end = pc.lo if end == 0 else pc.hi
+    if x_end not in prof.corners and x_end not in prof.kinks:
+        return False
+    j = k - 1 if end == 0 else k + 1
+    if not 0 <= j < len(prof.pieces):
+        return True
+    nb = prof.pieces[j]
+    if (nb.hi if end == 0 else nb.lo) != x_end:
+        return True
+    at = np.array([x_end])
+    own, other = float(pc.h(at)[0]), float(nb.h(at)[0])
+    if other > own + 1e-12 * max(prof.scale, abs(own)):
+        return True  # a step up (a sharp corner beside a lower piece)
+    outward = float(nb.dh(at)[0]) - theta  # slope of h0 - theta x on the neighbour at the joint
+    return not (outward > 0 if end == 0 else outward < 0)
 
 
 def _dedupe_minima(found: list[tuple], tol: float) -> list[tuple[float, float, float]]:

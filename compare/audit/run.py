@@ -45,6 +45,11 @@ worker would inherit the caller's address space (a test session that ran FE stud
 a worker of the 500-case audit short of memory)."""
 WORKER_START = "forkserver"
 INCONCLUSIVE = ("bem_unresolved", "no_reference")
+BEM_REFINEMENTS = 1
+"""A BEM comparison that fails at N / 2N panels is repeated once at 2N / 4N, and that verdict
+stands: the error estimate |fine - coarse| is too small when the two grids happen to place an
+edge alike (a double wedge's outer edge, seed 100269: N and 2N within 7e-5 of each other and
+1.3 fine panels short of the analytic edge; 4N and 8N within 0.07 and 0.03 of their panels of it)."""
 
 
 @dataclass(frozen=True)
@@ -120,12 +125,22 @@ def _solution_findings(normal, stick, n_bem: int) -> list[checks.Finding]:
             found += [_tagged(f, f"reduced problem P={red.P!r}, theta={red.theta!r}:")
                       for f in checks.quadrature_findings(red)]
     try:
-        pair = checks.solve_bem_pair(normal, n_bem)
-        found += checks.bem_findings(normal, pair)
-        if stick is not None:
-            found += checks.bem_stick_findings(stick, pair)
+        found += _bem_verdict(normal, stick, n_bem)
     except (RuntimeError, ValueError) as err:
         found.append(checks.Finding("bem_unresolved", 1.0, 0.0, f"BEM failed: {err}"))
+    return found
+
+
+def _bem_verdict(normal, stick, n_bem: int) -> list[checks.Finding]:
+    """The BEM comparisons at N and 2N panels; when one fails, again at 2N and 4N (see
+    BEM_REFINEMENTS): a disagreement must persist under refinement."""
+    for level in range(BEM_REFINEMENTS + 1):
+        pair = checks.solve_bem_pair(normal, n_bem * 2**level)
+        found = checks.bem_findings(normal, pair)
+        if stick is not None:
+            found += checks.bem_stick_findings(stick, pair)
+        if not any(f.failed for f in found):
+            break
     return found
 
 
