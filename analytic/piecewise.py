@@ -324,7 +324,8 @@ def _end_is_low(prof: Profile, k: int, end: int, theta: float) -> bool:
     own, other = float(pc.h(at)[0]), float(nb.h(at)[0])
     if other > own + 1e-12 * max(prof.scale, abs(own)):
         return True  # a step up (a sharp corner beside a lower piece)
-    outward = float(nb.dh(at)[0]) - theta  # slope of h0 - theta x on the neighbour at the joint
+    with np.errstate(invalid="ignore", divide="ignore"):  # an arc's vertical end: nan, kept
+        outward = float(nb.dh(at)[0]) - theta  # slope of h0 - theta x, neighbour, at the joint
     return not (outward > 0 if end == 0 else outward < 0)
 
 
