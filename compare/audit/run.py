@@ -49,7 +49,7 @@ BEM_REFINEMENTS = 1
 """A BEM comparison that fails at N / 2N panels is repeated once at 2N / 4N, and that verdict
 stands: the error estimate |fine - coarse| is too small when the two grids happen to place an
 edge alike (a double wedge's outer edge, seed 100269: N and 2N within 7e-5 of each other and
-1.3 fine panels short of the analytic edge; 4N and 8N within 0.07 and 0.03 of their panels of it)."""
+1.3 fine panels short of the analytic edge; 4N and 8N 0.07 and 0.03 of their panels off it)."""
 
 
 @dataclass(frozen=True)
