@@ -31,7 +31,8 @@ SLOW_SAMPLE = 500
 _LIST = json.loads(Path(__file__).with_name("audit_regressions.json").read_text())
 REGRESSIONS = {int(r["seed"]): r for r in _LIST["seeds"]}
 CASES = [AuditCase(-100 - i, c["family"], tuple(c["spec"]), c["P"], c["A"], c["M"], c["mode"],
-                   c["mu"], c["Q"], c["Q0"], tuple(c["core"])) for i, c in enumerate(_LIST["cases"])]
+                   c["mu"], c["Q"], c["Q0"], tuple(c["core"]))
+         for i, c in enumerate(_LIST["cases"])]
 """The explicit cases of ``audit_regressions.json`` (issue 29: a wedge beside a cylinder at six
 loads and in stage 2, a sharp punch beside a cylinder and a wedge pair in moment mode)."""
 
