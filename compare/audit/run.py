@@ -45,6 +45,9 @@ worker would inherit the caller's address space (a test session that ran FE stud
 a worker of the 500-case audit short of memory)."""
 WORKER_START = "forkserver"
 INCONCLUSIVE = ("bem_unresolved", "no_reference")
+SOLVE_TARGETS = {"p95": 0.5, "max": 3.0}
+"""Targets for the solve CPU time [s] over an audit (issue 29): a user should meet no case
+slower than this; measured before the issue: p95 0.84-1.2 s, max 21-26 s (seeds 0-499)."""
 BEM_REFINEMENTS = 1
 """A BEM comparison that fails at N / 2N panels is repeated once at 2N / 4N, and that verdict
 stands: the error estimate |fine - coarse| is too small when the two grids happen to place an
@@ -230,6 +233,7 @@ def summary(results: list[CaseResult]) -> dict:
         "solve_time_s": _spread(wall),
         "solve_cpu_s": _spread(cpu),
         "check_time_s": float(sum(r.check_time for r in results)),
+        "solve_cpu_targets_met": {k: bool(_spread(cpu)[k] <= v) for k, v in SOLVE_TARGETS.items()},
     }
 
 
@@ -246,6 +250,9 @@ def markdown(results: list[CaseResult], head: dict) -> str:
              f"| {head['cases']} | {head['disagreements']} | "
              f"{t['median']:.3f} / {t['p95']:.3f} / {t['max']:.3f} | "
              f"{c['median']:.3f} / {c['p95']:.3f} / {c['max']:.3f} |", "",
+             "Solve CPU time targets: " + ", ".join(
+                 f"{k} {c[k]:.3f} s <= {v} s: {'met' if c[k] <= v else 'NOT met'}"
+                 for k, v in SOLVE_TARGETS.items()), "",
              "| class | cases |", "|---|---|"]
     lines += [f"| {k} | {v} |" for k, v in head["by_class"].items()]
     lines += [f"| {k} (inconclusive) | {v} |" for k, v in head["inconclusive"].items()]
