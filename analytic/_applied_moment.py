@@ -140,8 +140,8 @@ def _failed_at(theta: float):
 
 def _initial_rotation(profile: Profile, xe: float) -> float:
     """The rotation that puts the minimum of ``h0 - theta x`` at the load centre ``xe``: the
-    slope there where h0 is curved and the tilted profile's lowest point is then at ``xe``,
-    else 0.  On a straight piece that slope would make the piece flat: out to infinity for a
+    slope there where h0 is curved (on a union: and the tilted profile's lowest point is then
+    at ``xe``), else 0.  On a straight piece that slope would make the piece flat: out to infinity for a
     wedge's face (the tilt limit; the first-touch zone then grows without bound and exhausted
     the memory after ~50 s), or a flat facet beyond the tilt limits of a double wedge whose inner
     faces are steeper than the outer ones (no solution).  On the flank of a union member beside
@@ -152,6 +152,8 @@ def _initial_rotation(profile: Profile, xe: float) -> float:
     slope, curvature = float(profile.dh0(x)[0]), float(profile.d2h0(x)[0])
     if not (np.isfinite(slope) and curvature != 0.0 and profile.admits_tilt(slope)):
         return 0.0
+    if profile.name != "union":
+        return slope
     mins = profile.local_minima(slope)
     lowest = min(mins, key=lambda m: m[2]) if mins else None
     if lowest is None or abs(0.5 * (lowest[0] + lowest[1]) - xe) > 1e-6 * profile.scale:
