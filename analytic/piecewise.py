@@ -261,6 +261,8 @@ def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]
     lo = pc.lo if np.isfinite(pc.lo) else far_point(prof, -1)
     hi = pc.hi if np.isfinite(pc.hi) else far_point(prof, +1)
     if pc.flat and abs(theta) * (hi - lo) <= FLAT_TILT * prof.scale:
+        if any(_continues_lower(prof, k, end, theta) for end in (0, -1)):
+            return []  # a flat face on a union's flank (h0 lower beside it): no minimum
         return [(pc.lo, pc.hi, float(pc.h(np.array([pc.lo]))[0]))]
     xs = np.linspace(lo, hi, 401)
     f = pc.h(xs) - theta * xs
@@ -306,27 +308,35 @@ def refine_minimum(pc: Piece, theta: float, a: float, b: float) -> float:
 
 def _end_is_low(prof: Profile, k: int, end: int, theta: float) -> bool:
     """A piece end is a candidate minimum only at a corner or kink where the profile does not
-    continue lower beyond it: no touching neighbour there (``h0 = +inf`` beyond), a step up to
-    the neighbour, or a neighbour that rises (tilted) going away from the joint.  At a kink where
-    ``h0 - theta x`` keeps rising or falling through the joint (a union's concave kink on a
-    flank: 257 of 740 random unions listed one) the end is no minimum (issue 29)."""
+    continue lower beyond it (:func:`_continues_lower`): at a kink where ``h0 - theta x`` keeps
+    rising or falling through the joint (a union's concave kink on a flank: 257 of 740 random
+    unions listed one) the end is no minimum (issue 29)."""
     pc = prof.pieces[k]
     x_end = pc.lo if end == 0 else pc.hi
     if x_end not in prof.corners and x_end not in prof.kinks:
         return False
+    return not _continues_lower(prof, k, end, theta)
+
+
+def _continues_lower(prof: Profile, k: int, end: int, theta: float) -> bool:
+    """Whether ``h0 - theta x`` goes lower beyond the end ``end`` (0: lo, -1: hi) of piece k:
+    a touching neighbour at the same height there whose tilted slope falls going away from the
+    joint (no neighbour: ``h0 = +inf`` beyond; a step up: a sharp corner)."""
+    pc = prof.pieces[k]
+    x_end = pc.lo if end == 0 else pc.hi
     j = k - 1 if end == 0 else k + 1
-    if not 0 <= j < len(prof.pieces):
-        return True
+    if not np.isfinite(x_end) or not 0 <= j < len(prof.pieces):
+        return False
     nb = prof.pieces[j]
     if (nb.hi if end == 0 else nb.lo) != x_end:
-        return True
+        return False
     at = np.array([x_end])
     own, other = float(pc.h(at)[0]), float(nb.h(at)[0])
     if other > own + 1e-12 * max(prof.scale, abs(own)):
-        return True  # a step up (a sharp corner beside a lower piece)
+        return False  # a step up (a sharp corner beside a lower piece)
     with np.errstate(invalid="ignore", divide="ignore"):  # an arc's vertical end: nan, kept
         outward = float(nb.dh(at)[0]) - theta  # slope of h0 - theta x, neighbour, at the joint
-    return not (outward > 0 if end == 0 else outward < 0)
+    return outward > 0 if end == 0 else outward < 0
 
 
 def _dedupe_minima(found: list[tuple], tol: float) -> list[tuple[float, float, float]]:
