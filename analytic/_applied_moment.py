@@ -141,13 +141,13 @@ def _failed_at(theta: float):
 def _initial_rotation(profile: Profile, xe: float) -> float:
     """The rotation that puts the minimum of ``h0 - theta x`` at the load centre ``xe``: the
     slope there where h0 is curved (on a union: and the tilted profile's lowest point is then
-    at ``xe``), else 0.  On a straight piece that slope would make the piece flat: out to infinity for a
-    wedge's face (the tilt limit; the first-touch zone then grows without bound and exhausted
-    the memory after ~50 s), or a flat facet beyond the tilt limits of a double wedge whose inner
-    faces are steeper than the outer ones (no solution).  On the flank of a union member beside
-    the loaded one (a load centre between a punch and a cylinder) the slope there tilts another
-    member down to first touch: the search started at theta = -2.55 for a solution at 1.6e-4
-    and took 16 s (issue 29)."""
+    at ``xe``), else 0.  On a straight piece that slope would make the piece flat: out to
+    infinity for a wedge's face (the tilt limit; the first-touch zone then grows without bound
+    and exhausted the memory after ~50 s), or a flat facet beyond the tilt limits of a double
+    wedge whose inner faces are steeper than the outer ones (no solution).  On the flank of a
+    union member beside the loaded one (a load centre between a punch and a cylinder) the slope
+    there tilts another member down to first touch: the search started at theta = -2.55 for a
+    solution at 1.6e-4 and took 16 s (issue 29)."""
     x = np.array([xe])
     slope, curvature = float(profile.dh0(x)[0]), float(profile.d2h0(x)[0])
     if not (np.isfinite(slope) and curvature != 0.0 and profile.admits_tilt(slope)):
