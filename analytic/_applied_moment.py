@@ -18,6 +18,8 @@ from analytic.errors import ConvergenceError, InputError
 from analytic.profiles import Profile
 
 THETA_XTOL = 1e-13
+THETA_COARSE = 1e-8  # the bracket's first root (relative to the rotation scale): from there the
+                     # polish (edges and theta by Newton) converges; THETA_XTOL only if it fails
 MOMENT_SETTLED = 1e-13  # |M(theta0) - M| / (P * span) at rounding level: no search (M = 0 on
                         # a symmetric profile; its secant steps went to theta ~ 1e-11 and failed)
 
@@ -32,18 +34,53 @@ def check_tipping(profile: Profile, P: float, M: float) -> float:
     return xe
 
 
-def _moment_at(profile: Profile, P: float, A: float, theta: float):
-    if not profile.admits_tilt(theta):  # h0 - theta x flat or falling out to infinity
-        return None
-    try:
-        st, sys_ = solve_fixed(profile, P, A, theta)
-    except ConvergenceError:
-        return None
-    return st, sys_, sys_.load_and_moment()[1]
+class _Rotations:
+    """Fixed-rotation solves at one load, remembered per rotation; a new rotation starts Newton
+    from the solved state of the nearest one (the continuation from the first touch only if that
+    fails): the moment search visits ~10 rotations close together, and each full solve took
+    0.3-0.9 s on a sharp punch beside a cylinder (16 s in all, issue 29)."""
+
+    def __init__(self, profile: Profile, P: float, A: float) -> None:
+        self.profile, self.P, self.A = profile, P, A
+        self.solved: dict[float, tuple[State, System, float]] = {}
+
+    def at(self, theta: float) -> tuple[State, System, float] | None:
+        """``(state, system, moment)`` at ``theta``, or None where the solve fails or the body
+        tips (h0 - theta x flat or falling out to infinity)."""
+        theta = float(theta)
+        if theta in self.solved:
+            return self.solved[theta]
+        if not self.profile.admits_tilt(theta):
+            return None
+        try:
+            st, sys_ = self._warm(theta) or solve_fixed(self.profile, self.P, self.A, theta)
+        except ConvergenceError:
+            return None
+        out = (st, sys_, sys_.load_and_moment()[1])
+        self.solved[theta] = out
+        return out
+
+    def _warm(self, theta: float) -> tuple[State, System] | None:
+        if not self.solved:
+            return None
+        near = self.solved[min(self.solved, key=lambda t: abs(t - theta))][0]
+        start = State(near.layout, near.beta.copy(), theta, self.P, near.xc, near.ell)
+        try:
+            return converge(start, self.profile, self.A, None)
+        except StepFailed:
+            return None
+
+    def moment(self, theta: float) -> float:
+        r = self.at(theta)
+        if r is None:
+            raise ConvergenceError("fixed-rotation solve failed inside the rotation bracket",
+                                   {"theta": theta})
+        return r[2]
 
 
-def _bracket(profile, P, A, M, theta0, step):
-    first = _moment_at(profile, P, A, theta0)
+def _bracket(rot: _Rotations, M: float, theta0: float, step: float):
+    P = rot.P
+    first = rot.at(theta0)
     if first is None:
         raise ConvergenceError("fixed-rotation solve failed at the initial rotation",
                                {"theta": theta0})
@@ -54,7 +91,7 @@ def _bracket(profile, P, A, M, theta0, step):
     lo_t, lo_f = theta0, f0
     for _ in range(60):
         t = lo_t + direction * step
-        trial = _moment_at(profile, P, A, t)
+        trial = rot.at(t)
         if trial is None:
             step *= 0.5
             continue
@@ -71,39 +108,54 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[S
     xe = check_tipping(profile, P, M)
     theta0 = _initial_rotation(profile, xe)
     scale = abs(theta0) + A * P / profile.scale + 1e-12
-    (t_lo, t_hi), _ = _bracket(profile, P, A, M, theta0, 0.25 * scale)
+    rot = _Rotations(profile, P, A)
+    (t_lo, t_hi), _ = _bracket(rot, M, theta0, 0.25 * scale)
+    failed: StepFailed | None = None
+    for xtol in (THETA_COARSE * scale, THETA_XTOL * max(scale, 1.0)):
+        theta = _root(rot, M, t_lo, t_hi, xtol)
+        st, sys_, _ = rot.at(theta) or _failed_at(theta)
+        try:
+            return converge(st, profile, A, M)
+        except StepFailed as exc:
+            failed = exc
+    if abs(sys_.load_and_moment()[1] - M) <= 1e-10 * P * st.ell:
+        return st, sys_
+    raise ConvergenceError(f"moment polish failed: {failed}", {"theta": theta}) from failed
+
+
+def _root(rot: _Rotations, M: float, t_lo: float, t_hi: float, xtol: float) -> float:
+    """The rotation in ``[t_lo, t_hi]`` whose fixed-rotation moment is M, to ``xtol``."""
+    if t_lo == t_hi:
+        return t_lo
     try:
-        theta = t_lo if t_lo == t_hi else brentq(
-            lambda t: _moment_or_nan(profile, P, A, t) - M, t_lo, t_hi,
-            xtol=THETA_XTOL * max(scale, 1.0), rtol=1e-14)
+        return brentq(lambda t: rot.moment(t) - M, t_lo, t_hi, xtol=xtol, rtol=1e-14)
     except ValueError as exc:  # a re-solve at a bracket end gave M - M(theta) the other sign
         raise ConvergenceError(f"moment search lost its bracket: {exc}",
                                {"theta_bracket": (t_lo, t_hi)}) from exc
-    st, sys_ = solve_fixed(profile, P, A, theta)
-    try:
-        return converge(st, profile, A, M)
-    except StepFailed as exc:
-        if abs(sys_.load_and_moment()[1] - M) <= 1e-10 * P * st.ell:
-            return st, sys_
-        raise ConvergenceError(f"moment polish failed: {exc}", {"theta": theta}) from exc
+
+
+def _failed_at(theta: float):
+    raise ConvergenceError("fixed-rotation solve failed at the rotation found", {"theta": theta})
 
 
 def _initial_rotation(profile: Profile, xe: float) -> float:
     """The rotation that puts the minimum of ``h0 - theta x`` at the load centre ``xe``: the
-    slope there where h0 is curved, else 0.  On a straight piece that slope would make the piece
-    flat: out to infinity for a wedge's face (the tilt limit; the first-touch zone then grows
-    without bound and exhausted the memory after ~50 s), or a flat facet beyond the tilt limits
-    of a double wedge whose inner faces are steeper than the outer ones (no solution)."""
+    slope there where h0 is curved (on a union: and the tilted profile's lowest point is then
+    at ``xe``), else 0.  On a straight piece that slope would make the piece flat: out to
+    infinity for a wedge's face (the tilt limit; the first-touch zone then grows without bound
+    and exhausted the memory after ~50 s), or a flat facet beyond the tilt limits of a double
+    wedge whose inner faces are steeper than the outer ones (no solution).  On the flank of a
+    union member beside the loaded one (a load centre between a punch and a cylinder) the slope
+    there tilts another member down to first touch: the search started at theta = -2.55 for a
+    solution at 1.6e-4 and took 16 s (issue 29)."""
     x = np.array([xe])
     slope, curvature = float(profile.dh0(x)[0]), float(profile.d2h0(x)[0])
-    if np.isfinite(slope) and curvature != 0.0 and profile.admits_tilt(slope):
+    if not (np.isfinite(slope) and curvature != 0.0 and profile.admits_tilt(slope)):
+        return 0.0
+    if profile.name != "union":
         return slope
-    return 0.0
-
-
-def _moment_or_nan(profile: Profile, P: float, A: float, theta: float) -> float:
-    r = _moment_at(profile, P, A, theta)
-    if r is None:
-        raise ConvergenceError("fixed-rotation solve failed inside the rotation bracket",
-                               {"theta": theta})
-    return r[2]
+    mins = profile.local_minima(slope)
+    lowest = min(mins, key=lambda m: m[2]) if mins else None
+    if lowest is None or abs(0.5 * (lowest[0] + lowest[1]) - xe) > 1e-6 * profile.scale:
+        return 0.0
+    return slope

@@ -17,7 +17,7 @@ import numpy as np
 
 from analytic._admissibility import find_event
 from analytic._first_touch import initial_state
-from analytic._guess import overlap_guess
+from analytic._guess import centred, overlap_guess
 from analytic._newton import Mode, NewtonFailed, State, beta_for, feasible, fresh_state, newton
 from analytic._sie import Layout, System
 from analytic._topology import (
@@ -44,12 +44,13 @@ def solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[Sta
     that fails (the admissibility checks decide either way)."""
     guess = overlap_guess(profile, theta, P, A)
     if guess is not None:
-        st = fresh_state(guess, theta, P)
-        st.beta = beta_for(st, A, P)
-        try:
-            return converge(st, profile, A, None)
-        except StepFailed:
-            pass
+        for layout in (guess, centred(guess, profile, theta)):
+            st = fresh_state(layout, theta, P)
+            st.beta = beta_for(st, A, P)
+            try:
+                return converge(st, profile, A, None)
+            except StepFailed:
+                pass
     st = initial_state(profile, A, theta, P)
     st, sys_, _ = continue_to(st, P, profile, A)
     return st, sys_

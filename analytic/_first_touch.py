@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from analytic._guess import centred
 from analytic._newton import Mode, NewtonFailed, State, beta_for, fresh_state, newton
 from analytic._sie import Layout, System
 from analytic.errors import ConvergenceError, InputError
@@ -35,13 +36,26 @@ def initial_state(profile: Profile, A: float, theta: float, P_target: float) -> 
             edges += e2
             pinned += p2
         layout = Layout(np.asarray(edges, float), np.asarray(pinned, bool))
-        st = fresh_state(layout, theta, P_target)
-        st = _solve_driver(st, profile, A, P_target)
+        st = _first_solve(layout, profile, A, theta, P_target)
         if st.P <= P_target:
             return st
         frac *= 0.1
     raise ConvergenceError("could not find a first-touch state below the requested load",
                            {"P_target": P_target})
+
+
+def _first_solve(layout: Layout, profile: Profile, A: float, theta: float, P_target: float
+                 ) -> State:
+    """The first-touch solve of :func:`_solve_driver`; when it fails, again from the zones
+    shifted to their own consistency (:func:`analytic._guess.centred`: a wedge's zone started
+    symmetric about its apex beside a cylinder's, issue 29)."""
+    try:
+        return _solve_driver(fresh_state(layout, theta, P_target), profile, A, P_target)
+    except ConvergenceError:
+        moved = centred(layout, profile, theta)
+        if np.array_equal(moved.edges, layout.edges):
+            raise
+    return _solve_driver(fresh_state(moved, theta, P_target), profile, A, P_target)
 
 
 def _touch_set(profile: Profile, theta: float) -> list[tuple[float, float, float]]:

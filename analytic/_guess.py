@@ -20,8 +20,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import brentq
 
-from analytic._sie import Layout
+from analytic._sie import Batch, Layout
 from analytic.profiles import Profile
 
 CHEB = 24
@@ -232,3 +233,56 @@ def overlap_guess(profile: Profile, theta: float, P: float, A: float) -> Layout 
     if not set(profile.pin_points).isdisjoint(edges):
         return None
     return Layout(np.array(edges), np.zeros(len(edges), bool))
+
+
+CENTRE_SHIFTS = np.linspace(-0.45, 0.45, 19)  # trial shifts of a zone, fractions of its width
+CENTRE_XTOL = 1e-6  # relative to the zone width: a starting point, Newton does the rest
+
+
+def centred(layout: Layout, profile: Profile, theta: float) -> Layout:
+    """``layout`` with every zone whose edges are both free shifted (its width kept) to where
+    its own consistency condition (paper Eq. 12, the zone alone) holds.
+
+    A wedge's zone must hold its apex at ``sin(pi/2 (t_r - t_l)/(t_r + t_l))`` of its half-width
+    off centre whatever the load; zones of a union started symmetric about the apex (the first
+    touch) or from the overlap levels are off by a fraction of their width, and the coupled
+    Newton then shrank the wedge's zone towards its apex without reducing its (scale-free)
+    consistency residual ("no descent", issue 29).  A zone whose residual keeps its sign over
+    the trial shifts is kept where it is."""
+    edges = layout.edges.copy()
+    for k, (a, b) in enumerate(layout.zones()):
+        if layout.pinned[2 * k] or layout.pinned[2 * k + 1]:
+            continue
+        shift = _centring_shift(profile, theta, a, b)
+        if shift is not None:
+            edges[2 * k: 2 * k + 2] = (a + shift, b + shift)
+    return Layout(edges, layout.pinned)
+
+
+def _centring_shift(profile: Profile, theta: float, a: float, b: float) -> float | None:
+    w = b - a
+    blocked = [*profile.pin_points]
+    lo, hi = profile.support
+
+    def residual(shift: float) -> float:
+        e = np.array([[a + shift, b + shift]])
+        if e[0, 0] <= lo or e[0, 1] >= hi or any(e[0, 0] < q < e[0, 1] for q in blocked) \
+                or not np.all(np.isfinite(profile.h0(e[0]))):
+            return math.nan
+        one = Layout(e[0], np.zeros(2, bool))
+        with np.errstate(all="ignore"):
+            mu, norm = Batch.build(one, profile, 1.0, float(e[0].mean()), e,
+                                   np.array([theta]), np.zeros((1, 0))).consistency()
+        return float(mu[0, 0] / (norm[0, 0] + 1e-300))
+
+    shifts = w * CENTRE_SHIFTS
+    values = [residual(float(v)) for v in shifts]
+    pairs = [(float(shifts[i]), float(shifts[i + 1])) for i in range(len(values) - 1)
+             if values[i] * values[i + 1] < 0]  # nan compares False: skipped
+    if not pairs:
+        return None
+    s0, s1 = min(pairs, key=lambda pr: min(abs(pr[0]), abs(pr[1])))
+    try:
+        return brentq(residual, s0, s1, xtol=CENTRE_XTOL * w)
+    except ValueError:  # a nan inside the bracket
+        return None

@@ -13,6 +13,10 @@ the rounding floor of the edges' positions.
 from __future__ import annotations
 
 import math
+from collections import Counter
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 
 import numpy as np
@@ -156,6 +160,28 @@ def feasible(st: State, profile: Profile) -> bool:
     return not any(q in profile.ridges or h0_steps(profile, q) for q in inside)
 
 
+_EVENTS: ContextVar[Counter | None] = ContextVar("analytic_solver_events", default=None)
+
+
+@contextmanager
+def counted_events() -> Iterator[Counter]:
+    """Count the solver's exceptional events (e.g. ``jacobian_nonfinite_columns``) inside the
+    block; the counter is yielded (nested blocks count into their own)."""
+    counter: Counter = Counter()
+    token = _EVENTS.set(counter)
+    try:
+        yield counter
+    finally:
+        _EVENTS.reset(token)
+
+
+def count_event(name: str, k: int = 1) -> None:
+    """Add ``k`` to the event ``name`` of the innermost :func:`counted_events` block."""
+    counter = _EVENTS.get()
+    if counter is not None:
+        counter[name] += k
+
+
 class NewtonFailed(Exception):
     def __init__(self, msg: str, diag: dict) -> None:
         super().__init__(msg)
@@ -265,24 +291,84 @@ def _fd_steps(z: np.ndarray, st: State, mode: Mode, profile: Profile) -> np.ndar
     return h
 
 
+def _away_from_features(steps: np.ndarray, st: State, mode: Mode, profile: Profile
+                        ) -> np.ndarray:
+    """The steps with the sign of every edge's step turned where it would reach or cross a kink
+    or corner, and no longer than the distance to it.  An edge a few ulps from a kink steps by
+    FD_ULPS ulps; a member whose edge crossed a kink the quadrature plan grades towards, or
+    moved away from it by several times its distance (the grading is planned on that distance:
+    the outer graded panels then overshoot the segment), had panels of negative length, a NaN
+    Jacobian column (issue 26: punch_and_cylinder, a free edge 13 ulps past a corner)."""
+    free = _free_edges(st.layout, mode)
+    out = steps.copy()
+    edges = st.layout.edges[free]
+    near = profile.feature_distance(edges)
+    for j, x in enumerate(edges.tolist()):
+        if _crosses_feature(profile, x, x + out[j] * st.ell):
+            out[j] = -out[j]
+        if np.isfinite(near[j]) and abs(out[j]) * st.ell > near[j]:
+            out[j] = math.copysign(near[j] / st.ell, out[j])
+    return out
+
+
+def _crosses_feature(profile: Profile, x: float, to: float) -> bool:
+    """Whether a kink or corner lies in ``[x, to]`` (or ``[to, x]``) with ``to != x``."""
+    features = profile.features
+    return bool(features.size) and bool(np.any((features - x) * (features - to) <= 0.0))
+
+
+def _batch_rows(st: State, states: list[State], mode: Mode, profile: Profile, A: float
+                ) -> np.ndarray:
+    """Scaled residual rows of ``states`` on the quadrature planned for ``st.layout``; a
+    member whose panels turned inside out gives non-finite rows (counted by the caller)."""
+    with np.errstate(invalid="ignore"):
+        batch = Batch.build(st.layout, profile, A, st.xc,
+                            np.array([q.layout.edges for q in states]),
+                            np.array([q.theta for q in states]),
+                            np.array([q.beta for q in states]))
+        return _rows(batch, st, mode)
+
+
 def _jacobian(z, F, st, mode, profile, A) -> np.ndarray:
     """Forward differences, all columns in one batch evaluation with the discretisation frozen
-    on the current layout (the base point is evaluated in the same batch)."""
-    steps = _fd_steps(z, st, mode, profile)
-    states = [st]
-    for j in range(z.size):
-        zp = z.copy()
-        zp[j] += steps[j]
-        trial = _unpack(zp, st, mode, A)
-        if not feasible(trial, profile):
-            steps[j] = -steps[j]
-            zp[j] = z[j] + steps[j]
-            trial = _unpack(zp, st, mode, A)
-        states.append(trial)
-    batch = Batch.build(st.layout, profile, A, st.xc, np.array([q.layout.edges for q in states]),
-                        np.array([q.theta for q in states]), np.array([q.beta for q in states]))
-    R = _rows(batch, st, mode)
+    on the current layout (the base point is evaluated in the same batch).  A non-finite
+    column is an explicit event: counted (``jacobian_nonfinite_columns`` in the solution's
+    ``diagnostics``), recomputed with the step reversed, and a column still not finite fails
+    the Newton solve."""
+    steps = _away_from_features(_fd_steps(z, st, mode, profile), st, mode, profile)
+    states = [st] + [_fd_member(z, j, steps, st, mode, profile, A) for j in range(z.size)]
+    R = _batch_rows(st, states, mode, profile, A)
+    bad = np.flatnonzero(~np.all(np.isfinite(R[1:]), axis=1))
+    if bad.size:
+        count_event("jacobian_nonfinite_columns", int(bad.size))
+        steps[bad] = -steps[bad]
+        redo = [st] + [_unpack(_stepped(z, j, steps[j]), st, mode, A) for j in bad.tolist()]
+        R[1 + bad] = _batch_rows(st, redo, mode, profile, A)[1:]
+        if not np.all(np.isfinite(R[1 + bad])):
+            raise NewtonFailed("non-finite Jacobian column", {"columns": bad.tolist()})
     return ((R[1:] - R[0]) / steps[:, None]).T
+
+
+def _stepped(z: np.ndarray, j: int, step: float) -> np.ndarray:
+    zp = z.copy()
+    zp[j] += step
+    return zp
+
+
+def _fd_member(z, j, steps, st, mode, profile, A) -> State:
+    """The state of column j; its step reversed (in ``steps``) when the forward one is not
+    feasible, unless the reversed step would reach a kink or corner (a free edge ulps past a
+    punch's corner, the zone not feasible itself: its step stays pointing away)."""
+    trial = _unpack(_stepped(z, j, steps[j]), st, mode, A)
+    if feasible(trial, profile):
+        return trial
+    back = _unpack(_stepped(z, j, -steps[j]), st, mode, A)
+    moved = np.flatnonzero(back.layout.edges != st.layout.edges)
+    if moved.size and _crosses_feature(profile, float(st.layout.edges[moved[0]]),
+                                       float(back.layout.edges[moved[0]])):
+        return trial
+    steps[j] = -steps[j]
+    return back
 
 
 def _line_search(st, z, dz, norm, mode, profile, A):

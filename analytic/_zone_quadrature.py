@@ -216,9 +216,9 @@ def squad_nodes(plan: SquadPlan, profile: Profile, edges: np.ndarray, xc: float,
     hi = ends[:, plan.hi] + plan.hi_lam * (ends[:, plan.hi_far] - ends[:, plan.hi])
     half = 0.5 * (hi - lo)
     s = (0.5 * (lo + hi))[:, plan.seg] + half[:, plan.seg] * plan.t
-    # half < 0 (a NaN weight, numpy's "invalid value in power") when a member's edge has crossed
-    # a kink its plan grades towards (a Jacobian column within ulps of it): that member's sums
-    # are NaN and Newton refuses the step (no descent), so no NaN reaches a result
+    # half < 0 (a NaN weight) when a member's edge has crossed a kink its plan grades towards:
+    # the Jacobian steps edges away from kinks (analytic._newton._away_from_features) and
+    # counts a non-finite column as an event, so no NaN reaches a result
     w = plan.w * (half**plan.power * plan.sign)[:, plan.seg]
     with np.errstate(divide="ignore"):  # a zone within ulps of its width: non-finite, rejected
         logs = np.log(np.abs(s[:, :, None] - edges[:, None, :]))

@@ -13,6 +13,7 @@ split; singular edges pin at corners or release).  Applied-moment mode searches 
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -24,7 +25,7 @@ from analytic._applied_moment import solve_with_moment
 from analytic._continuation import continue_to, solve_fixed
 from analytic._contour import zone_loads
 from analytic._gap import deformed_gap, in_zones
-from analytic._newton import Mode, State, residual
+from analytic._newton import Mode, State, counted_events, residual
 from analytic._sie import System
 from analytic._vectorise import elementwise
 from analytic.errors import ConvergenceError, InputError
@@ -50,6 +51,9 @@ class NormalSolution:
         from the integrated pressure, min pressure, min gap), and the figures of the independent
         check of :mod:`analytic.selfcheck` (``selfcheck_*``: zone loads, moment, spread of the
         rigid approach, min p, min gap, from ``pressure(x)`` and h0 only).
+    diagnostics : counts of the solver's exceptional events on the way to this solution
+        (``jacobian_nonfinite_columns``: finite-difference Jacobian columns that came out
+        non-finite and were recomputed with the step reversed; 0 normally).
     """
 
     zones: list[tuple[float, float]]
@@ -63,6 +67,7 @@ class NormalSolution:
     residuals: dict[str, float]
     profile: Profile = field(repr=False)
     _system: System = field(repr=False, compare=False)
+    diagnostics: dict[str, int] = field(default_factory=dict, compare=False)
 
     @property
     def n_zones(self) -> int:
@@ -97,11 +102,12 @@ def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
     """
     P, A = _validate(profile, P, A)
     M = check.optional_real("M", M, "a finite moment, or None for vertical indentation")
-    if M is None:
-        st, sys_ = solve_fixed(profile, P, A, 0.0)
-        return _finish(st, sys_, profile, A, "vertical")
-    st, sys_ = solve_with_moment(profile, P, A, float(M))
-    return _finish(st, sys_, profile, A, "moment", float(M))
+    with counted_events() as events:
+        if M is None:
+            st, sys_ = solve_fixed(profile, P, A, 0.0)
+            return _finish(st, sys_, profile, A, "vertical", events=events)
+        st, sys_ = solve_with_moment(profile, P, A, float(M))
+        return _finish(st, sys_, profile, A, "moment", float(M), events)
 
 
 def solve_normal_fixed_rotation(profile: Profile, P: float, A: float, theta: float
@@ -110,8 +116,9 @@ def solve_normal_fixed_rotation(profile: Profile, P: float, A: float, theta: flo
     P, A = _validate(profile, P, A)
     theta = check.real("theta", theta)
     _validate_theta(profile, theta)
-    st, sys_ = solve_fixed(profile, P, A, theta)
-    return _finish(st, sys_, profile, A, "fixed-rotation")
+    with counted_events() as events:
+        st, sys_ = solve_fixed(profile, P, A, theta)
+        return _finish(st, sys_, profile, A, "fixed-rotation", events=events)
 
 
 def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | None = None,
@@ -137,18 +144,20 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     th = 0.0 if theta is None else float(theta)
     _validate_theta(profile, th)
     mode = "vertical" if theta is None else "fixed-rotation"
-    st, _ = solve_fixed(profile, float(loads[order[0]]), A, th)
-    prev: tuple[State, ...] = ()
-    for i in order:
-        st, sys_, prev = continue_to(st, float(loads[i]), profile, A, prev)
-        out[i] = _finish(st, sys_, profile, A, mode)
+    with counted_events() as events:
+        st, _ = solve_fixed(profile, float(loads[order[0]]), A, th)
+        prev: tuple[State, ...] = ()
+        for i in order:
+            st, sys_, prev = continue_to(st, float(loads[i]), profile, A, prev)
+            out[i] = _finish(st, sys_, profile, A, mode, events=events)
     return out  # type: ignore[return-value]
 
 
 def _finish(st: State, sys_: System, profile: Profile, A: float, mode: str,
-            M_target: float | None = None) -> NormalSolution:
+            M_target: float | None = None, events: Counter | None = None) -> NormalSolution:
     """The solution, checked by :func:`analytic.selfcheck.check_normal` (its figures join the
-    residuals; ``M_target``: the applied moment, checked against ``int x p dx``)."""
+    residuals; ``M_target``: the applied moment, checked against ``int x p dx``; ``events``:
+    the solver's event counts so far, see :attr:`NormalSolution.diagnostics`)."""
     zl = zone_loads(sys_)
     P_calc, M_calc = sys_.load_and_moment()
     F = st.F if st.F is not None else residual(st, Mode(st.P, None), profile, A)[0]
@@ -162,8 +171,9 @@ def _finish(st: State, sys_: System, profile: Profile, A: float, mode: str,
         **checks,
     }
     singular = [tuple(bool(v) for v in pr) for pr in st.layout.pinned.reshape(-1, 2)]
+    diagnostics = {"jacobian_nonfinite_columns": 0, **dict(events or {})}
     sol = NormalSolution(st.layout.zones(), singular, zl, st.P, M_calc, st.theta, mode, A,
-                         res, profile, sys_)
+                         res, profile, sys_, diagnostics)
     figs = check_normal(profile, sol.zones, singular, zl, st.P, M_target, st.theta, A,
                         sol.pressure)
     res.update(figs.as_residuals())

@@ -255,7 +255,11 @@ def _crossings(p: Piece, q: Piece, grid: np.ndarray) -> list[float]:
 def _lowest_piece(cands: list[Piece], lo: float, hi: float) -> Piece | None:
     if lo == hi:
         return None
-    mid = 0.5 * (lo + hi) if np.isfinite(lo + hi) else (hi - 1.0 if np.isfinite(hi) else lo + 1.0)
+    if not (np.isfinite(lo) or np.isfinite(hi)):  # members that never cross (one above all)
+        mid = 0.0
+    else:
+        mid = 0.5 * (lo + hi) if np.isfinite(lo + hi) else (
+            hi - 1.0 if np.isfinite(hi) else lo + 1.0)
     best, val = None, INF
     for pc in cands:
         if pc.lo <= mid <= pc.hi:

@@ -28,8 +28,13 @@ FAST_SAMPLE = 30
 """Seeds 0..29 run in the default suite (~20 s)."""
 SLOW_SAMPLE = 500
 """Seeds 0..499 in the slow run."""
-REGRESSIONS = {int(r["seed"]): r for r in json.loads(
-    Path(__file__).with_name("audit_regressions.json").read_text())["seeds"]}
+_LIST = json.loads(Path(__file__).with_name("audit_regressions.json").read_text())
+REGRESSIONS = {int(r["seed"]): r for r in _LIST["seeds"]}
+CASES = [AuditCase(-100 - i, c["family"], tuple(c["spec"]), c["P"], c["A"], c["M"], c["mode"],
+                   c["mu"], c["Q"], c["Q0"], tuple(c["core"]))
+         for i, c in enumerate(_LIST["cases"])]
+"""The explicit cases of ``audit_regressions.json`` (issue 29: a wedge beside a cylinder at six
+loads and in stage 2, a sharp punch beside a cylinder and a wedge pair in moment mode)."""
 
 
 def _seed_params(seeds) -> list:
@@ -77,6 +82,13 @@ bem_loads); fixed, they pass."""
 @pytest.mark.parametrize("case", [pytest.param(c, id=f"wrong_answer_{-c.seed}")
                                   for c in ISSUE_CASES])
 def test_audit_passes_the_issue_wrong_answers(case: AuditCase) -> None:
+    _assert_agrees(run.audit_case(case))
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, id=e["name"],
+                                               marks=[pytest.mark.slow] if e["slow"] else [])
+                                  for c, e in zip(CASES, _LIST["cases"], strict=True)])
+def test_audit_passes_the_listed_cases(case: AuditCase) -> None:
     _assert_agrees(run.audit_case(case))
 
 

@@ -201,3 +201,15 @@ def test_a_solver_error_without_a_reference_is_inconclusive(monkeypatch) -> None
     monkeypatch.setattr(bem, "solve_normal_bem", _raise(RuntimeError("active set cycles")))
     result = run.audit_case(cases.make_case(2))
     assert result.classes == ("no_reference",) and not result.disagrees
+
+
+def test_the_summary_judges_the_solve_time_targets() -> None:
+    def case(cpu: float) -> run.CaseResult:
+        return run.CaseResult(0, "c", "f", "vertical", (), (), cpu, cpu, 0.0)
+
+    fast = [case(0.01)] * 99 + [case(2.0)]
+    head = run.summary(fast)
+    assert head["solve_cpu_targets_met"] == {"p95": True, "max": True}
+    slow = run.summary(fast[:-1] + [case(3.5)])
+    assert slow["solve_cpu_targets_met"] == {"p95": True, "max": False}
+    assert "max 3.500 s <= 3.0 s: NOT met" in run.markdown([], slow)
