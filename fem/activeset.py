@@ -36,11 +36,12 @@ before: the penalty terms 1/(w k) next to a stiff compliance need it).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
+from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
 
 if TYPE_CHECKING:
     from .contact import InterfaceProblem, Load
@@ -248,9 +249,12 @@ def factor_reference(prob: InterfaceProblem, sets: Sets) -> Reference:
 
 
 def checked_lu(A: np.ndarray, what: str) -> tuple:
-    """LU factors of A; NotConverged(what) if A is singular or not finite."""
+    """LU factors of A; NotConverged(what) if A is singular or not finite (the singularity is
+    this error, not a LinAlgWarning besides it)."""
     try:
-        lu = lu_factor(A, check_finite=False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", LinAlgWarning)
+            lu = lu_factor(A, check_finite=False)
     except (np.linalg.LinAlgError, ValueError) as exc:
         raise NotConverged(what) from exc
     if not np.all(np.isfinite(lu[0])) or np.any(np.diag(lu[0]) == 0):

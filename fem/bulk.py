@@ -117,7 +117,7 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
 
 def mass_matrix(scalar: Basis) -> sp.csr_matrix:
     """Scalar mass matrix ``M_ab = int phi_a phi_b`` (vectorised, as :func:`elasticity_matrix`)."""
-    phi = np.array([p[0].value for p in scalar.basis])  # (n_loc, n_el, n_qp)
+    phi = np.array([np.asarray(p[0]) for p in scalar.basis])  # (n_loc, n_el, n_qp)
     Me = np.einsum("aeq,beq,eq->eab", phi, phi, scalar.dx, optimize=True)
     dofs = scalar.element_dofs.T  # (n_el, n_loc)
     rows = np.broadcast_to(dofs[:, :, None], Me.shape)
