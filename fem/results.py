@@ -292,7 +292,7 @@ def _wls_root(t: np.ndarray, y: np.ndarray, sig: np.ndarray) -> tuple[float, flo
 
 
 def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
-              scale: np.ndarray | None = None, to_peak: bool = False) -> tuple[float, float]:
+              scale: np.ndarray | None = None) -> tuple[float, float]:
     """Zero of f beyond the end of the run in direction ``step`` from the weighted band fit of
     f**2 (see BAND_FRACTION .. BAND_COVER), and its uncertainty (both lengths; NaN if no fit).
 
@@ -300,8 +300,8 @@ def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
     beyond their combined uncertainty: f**2 is smooth only up to the nearest kink (e.g. a former
     stick edge inside a stage-3 stick zone).  ``scale``: the magnitude that carries the nodal
     noise (default f itself: relative noise of the pressure; mu p for a stick edge, where
-    mu p - |q| -> 0 but its noise does not); ``to_peak``: the band ends at f's peak."""
-    nodes = _band(run, step, np.maximum(f, 0.0), to_peak)
+    mu p - |q| -> 0 but its noise does not)."""
+    nodes = _band(run, step, np.maximum(f, 0.0))
     fits = []
     while True:
         fits.append(_band_fit(x, f, nodes, step, scale))
@@ -343,12 +343,14 @@ def edge_estimate(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
                   scale: np.ndarray | None = None, trust: float = math.inf,
                   to_peak: bool = False) -> tuple[float, float]:
     """One rule for every code's nodal data: (edge, uncertainty) of the zero of f beyond the
-    run's end.  Noisy data (:func:`is_noisy`) take the band fit and its own uncertainty when it
-    lies within ``trust`` elements of :func:`sqrt_edge` (stick edges: BAND_TRUST); else, and on
-    smooth data, :func:`sqrt_edge` is the edge, with the uncertainty the larger of the band
-    fit's own and the two estimates' distance (smooth data), or of ``trust`` elements and the
-    distance to the line through the two outermost nodes (noisy data the band does not fit)."""
-    e_band, u_band = band_edge(x, f, run, step, scale, to_peak)
+    run's end (``to_peak``: whether it is noisy is judged from the run's end to f's inner peak,
+    :func:`_through_peak`).  Noisy data (:func:`is_noisy`) take the band fit and its own
+    uncertainty when it lies within ``trust`` elements of :func:`sqrt_edge` (stick edges:
+    BAND_TRUST); else, and on smooth data, :func:`sqrt_edge` is the edge, with the uncertainty
+    the larger of the band fit's own and the two estimates' distance (smooth data), or of
+    ``trust`` elements and the distance to the line through the two outermost nodes (noisy data
+    the band does not fit)."""
+    e_band, u_band = band_edge(x, f, run, step, scale)
     e = sqrt_edge(x, f, run, step)
     h = 2.0 * _half_element(x, run, step)
     if not math.isfinite(e_band):
@@ -465,10 +467,10 @@ def stick_edge_estimate(x, p, q, mu: float, run: tuple[int, int], step: int
     stick zone; located by :func:`edge_estimate` (noise carried by mu p) trusting the band fit
     only within BAND_TRUST elements of :func:`sqrt_edge`: mu p - s q of a stage-3 stick zone
     peaks at a kink (the frozen stage-2 stick edge) a few nodes in, which the band crosses (on
-    Kratos' cattaneo result it put stage-3 stick edges up to 5 elements off); so the band and
-    the noise test end at that peak (``to_peak``): from the stick edge to the peak f is one
-    smooth branch (2 mu p0 (c'/a) sqrt(1 - x^2/c'^2)), noise of the stage-2 stick zone beyond
-    it does not make it noisy (Kratos level 1: 0.9 element off before)."""
+    Kratos' cattaneo result it put stage-3 stick edges up to 5 elements off); so the noise test
+    looks at the nodes from the stick edge to that peak only (``to_peak``): there f is one
+    smooth branch (2 mu p0 (c'/a) sqrt(1 - x^2/c'^2)), noise of the stage-2 stick zone beyond it
+    does not make it noisy (Kratos level 1: the band was taken, 0.9 element off)."""
     end = run[1] if step > 0 else run[0]
     s = np.sign(q[end + step]) or np.sign(q[end]) or 1.0
     f = np.maximum(mu * p - s * q, 0.0)
