@@ -224,10 +224,13 @@ def _inward(run: tuple[int, int], step: int) -> np.ndarray:
     return np.arange(i1, i0 - 1, -1) if step > 0 else np.arange(i0, i1 + 1)
 
 
-def _band(run: tuple[int, int], step: int, f: np.ndarray | None = None) -> np.ndarray:
+def _band(run: tuple[int, int], step: int, f: np.ndarray | None = None,
+          to_peak: bool = False) -> np.ndarray:
     """The band's nodes from the run's end inwards; with ``f``, leading nodes where f <=
     BAND_TRIM * max f (flagged in the run, but at f = 0 within the noise: e.g. stick flags on
-    nodes with |q| = mu p) are left out first."""
+    nodes with |q| = mu p) are left out first; with ``to_peak`` the band ends at the largest f
+    (at least BAND_MIN nodes): f**2 is one smooth branch only up to its peak (see
+    stick_edge_estimate)."""
     inward = _inward(run, step)
     n = min(max(int(BAND_FRACTION * inward.size), BAND_MIN), BAND_MAX, inward.size)
     if f is None or not inward.size:
@@ -236,6 +239,8 @@ def _band(run: tuple[int, int], step: int, f: np.ndarray | None = None) -> np.nd
     first = int(np.argmax(big)) if big.any() else 0
     if inward.size - first >= BAND_MIN:
         inward = inward[first:]
+    if to_peak:
+        n = min(n, max(int(np.argmax(f[inward[:n]])) + 1, BAND_MIN))
     return inward[:min(n, inward.size)]
 
 
@@ -335,24 +340,36 @@ def _band_fit(x: np.ndarray, f: np.ndarray, nodes: np.ndarray, step: int,
 
 
 def edge_estimate(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
-                  scale: np.ndarray | None = None, trust: float = math.inf
-                  ) -> tuple[float, float]:
+                  scale: np.ndarray | None = None, trust: float = math.inf,
+                  to_peak: bool = False) -> tuple[float, float]:
     """One rule for every code's nodal data: (edge, uncertainty) of the zero of f beyond the
-    run's end.  Noisy data (:func:`is_noisy`) take the band fit and its own uncertainty when it
-    lies within ``trust`` elements of :func:`sqrt_edge` (stick edges: BAND_TRUST); else, and on
-    smooth data, :func:`sqrt_edge` is the edge, with the uncertainty the larger of the band
-    fit's own and the two estimates' distance (smooth data), or of ``trust`` elements and the
-    distance to the line through the two outermost nodes (noisy data the band does not fit)."""
+    run's end (``to_peak``: whether it is noisy is judged from the run's end to f's inner peak,
+    :func:`_through_peak`).  Noisy data (:func:`is_noisy`) take the band fit and its own
+    uncertainty when it lies within ``trust`` elements of :func:`sqrt_edge` (stick edges:
+    BAND_TRUST); else, and on smooth data, :func:`sqrt_edge` is the edge, with the uncertainty
+    the larger of the band fit's own and the two estimates' distance (smooth data), or of
+    ``trust`` elements and the distance to the line through the two outermost nodes (noisy data
+    the band does not fit)."""
     e_band, u_band = band_edge(x, f, run, step, scale)
     e = sqrt_edge(x, f, run, step)
     h = 2.0 * _half_element(x, run, step)
     if not math.isfinite(e_band):
         return e, _half_element(x, run, step)
-    if is_noisy(x, f, run, step):
+    if is_noisy(x, f, _through_peak(run, step, f) if to_peak else run, step):
         if abs(e - e_band) <= trust * h:
             return e_band, u_band
         return e, max(trust * h, _two_node_spread(x, f, run, step, e))
     return e, max(u_band, abs(e - e_band))
+
+
+def _through_peak(run: tuple[int, int], step: int, f: np.ndarray) -> tuple[int, int]:
+    """The run from its end in direction ``step`` inwards through the last node of its
+    ``to_peak`` band when that band ends at an inner peak of f (else the whole run)."""
+    band = _band(run, step, np.maximum(f, 0.0), to_peak=True)
+    if band.size == _band(run, step, np.maximum(f, 0.0)).size:
+        return run
+    last = int(band[-1])
+    return (run[0], last) if step < 0 else (last, run[1])
 
 
 def _half_element(x: np.ndarray, run: tuple[int, int], step: int) -> float:
@@ -450,12 +467,15 @@ def stick_edge_estimate(x, p, q, mu: float, run: tuple[int, int], step: int
     stick zone; located by :func:`edge_estimate` (noise carried by mu p) trusting the band fit
     only within BAND_TRUST elements of :func:`sqrt_edge`: mu p - s q of a stage-3 stick zone
     peaks at a kink (the frozen stage-2 stick edge) a few nodes in, which the band crosses (on
-    Kratos' cattaneo result it put stage-3 stick edges up to 5 elements off)."""
+    Kratos' cattaneo result it put stage-3 stick edges up to 5 elements off); so the noise test
+    looks at the nodes from the stick edge to that peak only (``to_peak``): there f is one
+    smooth branch (2 mu p0 (c'/a) sqrt(1 - x^2/c'^2)), noise of the stage-2 stick zone beyond it
+    does not make it noisy (Kratos level 1: the band was taken, 0.9 element off)."""
     end = run[1] if step > 0 else run[0]
     s = np.sign(q[end + step]) or np.sign(q[end]) or 1.0
     f = np.maximum(mu * p - s * q, 0.0)
     return edge_estimate(x, f, _stick_run(f, p, run, step), step, scale=mu * p,
-                         trust=BAND_TRUST)
+                         trust=BAND_TRUST, to_peak=True)
 
 
 #: A node flagged slip next to a stick run still belongs to it when mu p - s q there exceeds

@@ -133,6 +133,40 @@ def test_stick_edge_with_ripple(n):
                 assert abs(e - step * c) <= u
 
 
+#: Stage-3 stick edges (Cattaneo unloaded: stick zone |x| < c3 around the frozen stage-2 one
+#: |x| < c) with the +-2 % ripple inside the stage-2 stick zone only (Kratos' stage 3: smooth
+#: between the two edges, noisy inside): mu p - s q = 2 mu sqrt(c3^2 - x^2) is one smooth branch
+#: up to its peak at c; the band fit across that kink put the edge 0.74 element off (h = a/40),
+#: on the smooth branch it is exact to round-off (measured 0.000, c3 - c = 7-11 elements).
+STAGE3_STICK_ACCURACY = 0.05
+
+
+def unloaded(n: int, phase: float, c: float, c3: float, mu: float = 0.3):
+    """Cattaneo unloaded from Q0 (stick |x| < c) by dQ: reverse slip beyond c3 (a = p0 = 1)."""
+    h = 1.0 / n
+    x = (np.arange(-n - 5, n + 6) + phase) * h
+    r = np.where(np.abs(x) < c, 0.02 * (-1.0) ** np.arange(x.size), 0.0)
+    p = np.sqrt(np.clip(1.0 - x * x, 0.0, None)) * (1.0 + r)
+    q = mu * (-p + 2.0 * np.sqrt(np.clip(c3 * c3 - x * x, 0.0, None))
+              - np.sqrt(np.clip(c * c - x * x, 0.0, None)) * (1.0 + r))
+    status = np.where(p > 0, np.where(np.abs(x) < c3, STICK, SLIP), OPEN).astype(np.int8)
+    return x, p, q, status, h
+
+
+@pytest.mark.parametrize("n", [40, 80])
+@pytest.mark.parametrize("c3", [0.8, 0.9])
+def test_stage3_stick_edge_with_the_frozen_stick_edge_inside(n, c3):
+    mu, c = 0.3, 0.63
+    for phase in PHASES[::2]:
+        x, p, q, status, h = unloaded(n, phase, c, c3, mu)
+        (run,) = runs(status == STICK)
+        assert is_noisy(x, np.maximum(mu * p + q, 0.0), run, 1)
+        for step in (-1, 1):
+            e, u = stick_edge_estimate(x, p, q, mu, run, step)
+            assert abs(e - step * c3) / h <= STAGE3_STICK_ACCURACY
+            assert abs(e - step * c3) <= u + 1e-9 * h
+
+
 def test_every_edge_carries_its_uncertainty():
     x, p, q, status, h = cattaneo(40, 0.3, 0.63)
     zones, sticks, u_zones, u_sticks = zones_with_uncertainty(
