@@ -130,8 +130,12 @@ class ConvergenceStudy:
                     f"over the penalty range (<= {PENALTY_EDGE_SHIFT:g})")
         if self.converges:
             return "converges"
-        return "does not converge: " + _failure(self.orders, self.errors, self.stall, self.kind,
-                                                self.edge_shift)
+        return "does not converge: " + self.failure()
+
+    def failure(self) -> str:
+        """Why the study does not converge ('' when it does): the stall, the order, or errors
+        not smaller at the finest run (one rule, ``_failure``, decides ``converges`` too)."""
+        return _failure(self.orders, self.errors, self.stall, self.kind, self.edge_shift)
 
     def richardson_line(self) -> str:
         """The Richardson estimate in words (h-studies; '' otherwise): the extrapolated edges'

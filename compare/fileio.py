@@ -124,6 +124,18 @@ def _legacy_hint(owned: dict | None, foreign: list[str]) -> str:
     return ""
 
 
+def _folder(out: str | Path, own: str, not_file: str) -> Path:
+    """``out`` resolved; CaseError when it is refused outright (:func:`_never`: ``own`` says
+    what to give instead) or is a file (``not_file``)."""
+    path = Path(out).expanduser().resolve()
+    why = _never(path)
+    if why:
+        raise CaseError(f"output folder {out}: refused, it {why}; {own}")
+    if path.exists() and not path.is_dir():
+        raise CaseError(f"output folder {out}: is a file; {not_file}")
+    return path
+
+
 def plan_output(out: str | Path, command: str, force: bool = False,
                 expected: tuple[str, ...] = ()) -> OutputPlan:
     """Check the output directory ``out`` of ``command`` before anything is computed.
@@ -133,14 +145,8 @@ def plan_output(out: str | Path, command: str, force: bool = False,
     beside files multicontact did not write (those are kept); ``expected`` names files the
     command will write, so that one that would overwrite a foreign file is refused now.
     """
-    path = Path(out).expanduser().resolve()
-    why = _never(path)
-    if why:
-        raise CaseError(f"output folder {out}: refused, it {why}; multicontact writes only into "
-                        "a folder of its own, e.g. -o report")
-    if path.exists() and not path.is_dir():
-        raise CaseError(f"output folder {out}: is a file; give a folder (new or one that "
-                        "multicontact wrote)")
+    path = _folder(out, "multicontact writes only into a folder of its own, e.g. -o report",
+                   "give a folder (new or one that multicontact wrote)")
     if not path.exists():
         return OutputPlan(path, command, (), force)
     owned = read_owned(path)
@@ -171,13 +177,7 @@ def check_store(out: str | Path, marker: str, force: bool = False) -> Path:
     """Check the folder ``out`` of a store that only adds its own files (a sweep: resumable,
     never deletes): refused outright like :func:`plan_output`; an existing folder that holds
     files but not the store's ``marker`` file is refused unless ``force``."""
-    path = Path(out).expanduser().resolve()
-    why = _never(path)
-    if why:
-        raise CaseError(f"output folder {out}: refused, it {why}; give a folder of its own, "
-                        "e.g. -o runs/NAME")
-    if path.exists() and not path.is_dir():
-        raise CaseError(f"output folder {out}: is a file; give a folder")
+    path = _folder(out, "give a folder of its own, e.g. -o runs/NAME", "give a folder")
     if path.is_dir() and not (path / marker).exists() and not force:
         foreign = _files(path)
         if foreign:

@@ -118,7 +118,7 @@ class SequenceVerification:
                                if m != "pressure_l2_error" and math.isfinite(st.orders[m]))
             return (f"converges at order {st.orders['pressure_l2_error']:.2f} toward the "
                     f"analytic solution (pressure L2 error; {others})")
-        why = st.verdict().removeprefix("does not converge: ")
+        why = st.failure()
         return why if why.startswith("stalls") else f"does not converge: {why}"
 
     def summary(self) -> dict:
