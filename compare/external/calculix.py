@@ -43,7 +43,6 @@ import numpy as np
 from compare.analytic_side import solve_normal_case
 from compare.cases import Case, load_case
 from compare.errors import CaseError
-from compare.external.csvio import MANIFEST, step_name
 from compare.external.driver import (
     BODY_SIZE_FACTOR,
     DriverError,
@@ -51,6 +50,9 @@ from compare.external.driver import (
     parser,
     print_verdicts,
     run_cli,
+)
+from compare.external.driver import (
+    write_steps as driver_steps,
 )
 from compare.fileio import owned_output, plan_output
 
@@ -489,16 +491,8 @@ def write_steps(out: Path, case: Case, x: np.ndarray, steps: list[CcxStep], n_do
     """Manifest + one step file per increment, in our convention (signs converted here)."""
     head = [f"# code = {code}", f"# case = {case.name}", f"# dofs = {n_dofs}", "# order = 1",
             f"# seconds = {seconds:.3f}"]
-    lines = head + ["step,stage,P,Q,M,file"]
-    out.mkdir(parents=True, exist_ok=True)
-    for k, s in enumerate(steps):
-        name = step_name(k)
-        lines.append(f"{k},{s.stage},{s.P:.12g},{s.Q:.12g},{s.M:.12g},{name}")
-        table = ["x,p,q,status"] + [f"{a!r},{b:.10g},{c:.10g},{int(t)}" for a, b, c, t in zip(
-            x.tolist(), s.p.tolist(), s.q.tolist(), s.status.tolist(), strict=True)]
-        (out / name).write_text("\n".join(table) + "\n")
-    (out / MANIFEST).write_text("\n".join(lines) + "\n")
-    return out / MANIFEST
+    return driver_steps(out, head, x, [(s.stage, s.P, s.Q, s.M, s.p, s.q, s.status)
+                                       for s in steps])
 
 
 def convert(case: Case, g: Grid, frd_path: Path, out: Path, seconds: float, code: str

@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from compare.errors import CaseError
+from compare.external.csvio import MANIFEST, step_name
 
 #: A driver's run lands on the case's P and Q0 within this fraction.  Measured (Cattaneo,
 #: level 0): Kratos with targets from the clamped FE model 0.02 % on P, 0.2 % on Q0; CalculiX
@@ -94,3 +95,19 @@ def run_cli(prog: str, body: Callable[[], bool]) -> int:
         msg = " ".join(str(exc).split()) or type(exc).__name__
         print(f"{prog}: error: {msg}", file=sys.stderr)
         return 2
+
+
+def write_steps(out: Path, head: Sequence[str], x, steps: Sequence[tuple]) -> Path:
+    """The exchange format of a driver's run: ``OUT/steps.csv`` (the ``# key = value`` lines
+    ``head``, then one row per step) and one ``x,p,q,status`` file per step.  ``steps``:
+    (stage, P, Q, M, p, q, status) in the signs ``head`` declares; returns the manifest."""
+    out.mkdir(parents=True, exist_ok=True)
+    lines = [*head, "step,stage,P,Q,M,file"]
+    for k, (stage, P, Q, M, p, q, status) in enumerate(steps):
+        name = step_name(k)
+        lines.append(f"{k},{stage},{P:.12g},{Q:.12g},{M:.12g},{name}")
+        table = ["x,p,q,status"] + [f"{a!r},{b:.10g},{c:.10g},{int(t)}" for a, b, c, t in zip(
+            x.tolist(), p.tolist(), q.tolist(), status.tolist(), strict=True)]
+        (out / name).write_text("\n".join(table) + "\n")
+    (out / MANIFEST).write_text("\n".join(lines) + "\n")
+    return out / MANIFEST

@@ -45,7 +45,7 @@ from compare.analytic_side import solve_normal_case
 from compare.cases import Case, load_case
 from compare.errors import CaseError
 from compare.external import write_result
-from compare.external.csvio import MANIFEST, step_name
+from compare.external.csvio import MANIFEST
 from compare.external.driver import (
     BODY_SIZE_FACTOR,
     LANDING_RTOL,
@@ -55,6 +55,9 @@ from compare.external.driver import (
     parser,
     print_verdicts,
     run_cli,
+)
+from compare.external.driver import (
+    write_steps as driver_steps,
 )
 from compare.fem_side import kinks, mesh, run_fem, window
 from compare.fileio import owned_output, plan_output
@@ -380,21 +383,15 @@ def _solve_path(work: Path, name: str, g: Geometry, path) -> tuple[list, float, 
 
 def write_steps(out: Path, case: str, x: np.ndarray, rows: list, n_dofs: int, seconds: float,
                 note: str) -> Path:
-    """Manifest + step files with Kratos' own signs declared in the header."""
+    """Manifest + step files with Kratos' own signs declared in the header (the loads are
+    written in Kratos' shear sense, like q)."""
     head = [f"# code = {CODE}", f"# case = {case}", f"# dofs = {n_dofs}", "# order = 1",
             f"# seconds = {seconds:.3f}", f"# pressure_sign = {KRATOS_PRESSURE_SIGN}",
             f"# shear_sign = {KRATOS_SHEAR_SIGN}",
             f"# targets: {note}"]
-    lines = head + ["step,stage,P,Q,M,file"]
-    for k, (stage, d) in enumerate(rows):
-        name = step_name(k)
-        F = KRATOS_SHEAR_SIGN  # loads are written in Kratos' shear sense, like q
-        lines.append(f"{k},{stage},{d['P']:.12g},{F * d['Q']:.12g},{d['M']:.12g},{name}")
-        table = ["x,p,q,status"] + [f"{a!r},{b:.10g},{c:.10g},{int(s)}" for a, b, c, s in zip(
-            x.tolist(), d["p"].tolist(), d["q"].tolist(), d["status"].tolist(), strict=True)]
-        (out / name).write_text("\n".join(table) + "\n")
-    (out / MANIFEST).write_text("\n".join(lines) + "\n")
-    return out / MANIFEST
+    return driver_steps(out, head, x, [
+        (stage, d["P"], KRATOS_SHEAR_SIGN * d["Q"], d["M"], d["p"], d["q"], d["status"])
+        for stage, d in rows])
 
 
 def main(argv: list[str] | None = None) -> int:
