@@ -486,7 +486,7 @@ class System:
                                                         h_to[k:k + GAP_CHUNK])
                                    for k in range(0, x_to.size, GAP_CHUNK)])
         x_to = x_to.astype(float)
-        plan = self.batch.gap_plan(idx.tolist(), x_to.tolist())
+        plan = self.batch.gap_plan(idx.tolist(), x_to.tolist(), SUBTRACT_REACH)
         S = self.batch.gap_sums(plan, x_to[None, :])
         ends = plan.graded_ends(self.batch.edges, self.batch.edge_clearances, x_to[None, :])
         return h_to - self.batch.h_at(ends, plan.pieces)[0] + S[0]
