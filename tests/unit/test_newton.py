@@ -1,0 +1,84 @@
+"""Unit tests of the Newton solver's cheap failures and chord steps (``analytic._newton``) and of
+the moment search's choice of warm starts (``analytic._applied_moment._Rotations``), issue 29:
+Newton from a topology with no solution nearby crawled for 40 iterations, each with a fresh
+Jacobian and a line search after a rejected chord step, and the moment search repeated warm
+starts that had already failed from the same side."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import analytic
+from analytic import _applied_moment, _newton, profiles
+from analytic._sie import Layout
+from compare.audit.cases import make_case
+
+P_836, THETA_836 = 1.1537179482016971e-05, -1.052984e-03
+"""Audit seed 100836 (five cylinders, moment mode): at this rotation only the leftmost cylinder
+touches, so two zones on the outer cylinders have no solution."""
+
+
+def _state(edges, P: float, theta: float) -> _newton.State:
+    st = _newton.fresh_state(Layout(np.asarray(edges, float), np.zeros(len(edges), bool)),
+                             theta, P)
+    st.beta = _newton.beta_for(st, 1.0, P)
+    return st
+
+
+def test_newton_on_a_topology_without_a_solution_fails_as_stalled() -> None:
+    """It crawled at a residual of 59.28 until NEWTON_MAXIT (0.34 s); now it stops once
+    STALL_STEPS steps gained less than STALL_GAIN in all."""
+    st = _state([-3.20221, -3.02466, 2.78643, 2.79297], P_836, THETA_836)
+    with pytest.raises(_newton.NewtonFailed, match="stalled") as err:
+        _newton.newton(st, _newton.Mode(P_836, None), make_case(100836).profile, 1.0)
+    diag = err.value.diag
+    assert diag["iteration"] < _newton.NEWTON_MAXIT
+    assert diag["residual"] > (1 - _newton.STALL_GAIN) * diag["residual_steps_before"]
+
+
+def test_a_converging_crawl_is_not_a_stall() -> None:
+    """Every accepted step above the floor records its residual; a reduction by more than
+    STALL_GAIN over STALL_STEPS steps passes, less fails, and a residual at the rounding floor
+    restarts the count."""
+    crawl: list[float] = []
+    F = np.ones(1)
+    for k in range(3 * _newton.STALL_STEPS):
+        norm = 0.99**k
+        _newton._check_stall(crawl, norm, 0.99 * norm, F, 1e-10, k)
+    crawl.clear()
+    with pytest.raises(_newton.NewtonFailed, match="stalled"):
+        for k in range(_newton.STALL_STEPS):
+            _newton._check_stall(crawl, 1.0 - 1e-3 * k, 1.0 - 1e-3 * (k + 1), F, 1e-10, k)
+    crawl[:] = [1.0] * (_newton.STALL_STEPS - 1)
+    _newton._check_stall(crawl, 1.0, 1.0, np.full(1, 1e-12), 1e-10, 0)
+    assert crawl == []
+
+
+def test_chord_step_is_taken_only_when_it_gains_the_refresh_factor() -> None:
+    prof, P = profiles.cylinder(1.0), 0.1
+    (a, b), = analytic.solve_normal(prof, P, 1.0).zones
+    st = _state([a * 1.001, b * 0.999], P, 0.0)  # near the solution: Newton gains ~1e3
+    mode = _newton.Mode(P, None)
+    z = _newton._pack(st, mode)
+    F, _ = _newton.residual(st, mode, prof, 1.0)
+    norm = float(np.max(np.abs(F)))
+    J = _newton._jacobian(z, F, st, mode, prof, 1.0)
+    step = _newton._chord_step(st, z, np.linalg.solve(J, -F), norm, mode, prof, 1.0)
+    assert step is not None and step[3] <= _newton.REFRESH_RATIO * norm
+    assert _newton._chord_step(st, z, np.zeros_like(z), norm, mode, prof, 1.0) is None
+    crossing = np.array([0.5, -0.5])  # edges crossed: not feasible
+    assert _newton._chord_step(st, z, crossing, norm, mode, prof, 1.0) is None
+
+
+def test_warm_starts_skip_a_side_that_already_failed() -> None:
+    """The nearest solved rotation on each side, nearest first; one that a warm start failed
+    from towards a rotation is not offered again in that direction (only in the other)."""
+    rot = _applied_moment._Rotations(profiles.cylinder(1.0), 1.0, 1.0)
+    rot.solved = dict.fromkeys([-3.0, -1.0, 2.0, 5.0])
+    assert rot._starts(0.0) == [-1.0, 2.0]
+    assert rot._starts(1.8) == [2.0, -1.0]
+    rot.failed.append((-1.0, 1.5))
+    assert rot._starts(0.0) == [2.0]
+    assert rot._starts(-2.5) == [-3.0, -1.0]
+    assert rot._starts(6.0) == [5.0]
