@@ -242,7 +242,19 @@ def summary(results: list[CaseResult]) -> dict:
         "solve_cpu_s": _spread(cpu),
         "check_time_s": float(sum(r.check_time for r in results)),
         "solve_cpu_targets_met": {k: bool(_spread(cpu)[k] <= v) for k, v in SOLVE_TARGETS.items()},
+        "solve_cpu_by_family_mode": _by_family_mode(results),
     }
+
+
+def _by_family_mode(results: list[CaseResult]) -> dict[str, dict[str, float]]:
+    """Per ``family/mode``: cases, solve CPU median / p95 / max [s] and the cases over the
+    p95 target (where the tail of the solve time lies)."""
+    groups: dict[str, list[float]] = {}
+    for r in results:
+        groups.setdefault(f"{r.family}/{r.mode}", []).append(r.solve_cpu)
+    return {k: {"cases": len(v), **_spread(np.array(v)),
+                "over_p95_target": int(sum(t > SOLVE_TARGETS["p95"] for t in v))}
+            for k, v in sorted(groups.items())}
 
 
 def _spread(t: np.ndarray) -> dict[str, float]:
@@ -261,7 +273,12 @@ def markdown(results: list[CaseResult], head: dict) -> str:
              "Solve CPU time targets: " + ", ".join(
                  f"{k} {c[k]:.3f} s <= {v} s: {'met' if c[k] <= v else 'NOT met'}"
                  for k, v in SOLVE_TARGETS.items()), "",
-             "| class | cases |", "|---|---|"]
+             "| family/mode | cases | solve CPU median / p95 / max [s] | "
+             f"over {SOLVE_TARGETS['p95']} s |", "|---|---|---|---|"]
+    lines += [f"| {k} | {g['cases']} | {g['median']:.3f} / {g['p95']:.3f} / {g['max']:.3f} | "
+              f"{g['over_p95_target']} |"
+              for k, g in head.get("solve_cpu_by_family_mode", {}).items()]
+    lines += ["", "| class | cases |", "|---|---|"]
     lines += [f"| {k} | {v} |" for k, v in head["by_class"].items()]
     lines += [f"| {k} (inconclusive) | {v} |" for k, v in head["inconclusive"].items()]
     lines += ["", "## Cases", ""]

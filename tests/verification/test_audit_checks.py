@@ -213,3 +213,17 @@ def test_the_summary_judges_the_solve_time_targets() -> None:
     slow = run.summary(fast[:-1] + [case(3.5)])
     assert slow["solve_cpu_targets_met"] == {"p95": True, "max": False}
     assert "max 3.500 s <= 3.0 s: NOT met" in run.markdown([], slow)
+
+
+def test_the_summary_spreads_the_solve_time_by_family_and_mode() -> None:
+    def case(family: str, mode: str, cpu: float) -> run.CaseResult:
+        return run.CaseResult(0, "c", family, mode, (), (), cpu, cpu, 0.0)
+
+    results = [case("punch", "moment", t) for t in (0.1, 0.2, 0.9)] + [case("wedge", "vertical",
+                                                                             0.01)]
+    head = run.summary(results)
+    punch = head["solve_cpu_by_family_mode"]["punch/moment"]
+    assert punch["cases"] == 3 and punch["median"] == 0.2 and punch["max"] == 0.9
+    assert punch["over_p95_target"] == 1
+    assert head["solve_cpu_by_family_mode"]["wedge/vertical"]["over_p95_target"] == 0
+    assert "| punch/moment | 3 | 0.200 / " in run.markdown(results, head)
