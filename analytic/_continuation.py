@@ -42,6 +42,12 @@ class StepFailed(Exception):
 def solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[State, System]:
     """Newton straight from the overlap guess at P; full continuation from the first touch if
     that fails (the admissibility checks decide either way)."""
+    return solve_from_guess(profile, P, A, theta) or solve_from_first_touch(profile, P, A, theta)
+
+
+def solve_from_guess(profile: Profile, P: float, A: float, theta: float
+                     ) -> tuple[State, System] | None:
+    """Newton from the overlap guess at P, then from its zones re-centred; None if both fail."""
     guess = overlap_guess(profile, theta, P, A)
     if guess is not None:
         for layout in (guess, centred(guess, profile, theta)):
@@ -51,6 +57,12 @@ def solve_fixed(profile: Profile, P: float, A: float, theta: float) -> tuple[Sta
                 return converge(st, profile, A, None)
             except StepFailed:
                 pass
+    return None
+
+
+def solve_from_first_touch(profile: Profile, P: float, A: float, theta: float
+                           ) -> tuple[State, System]:
+    """Continuation in the load from the first touch to P."""
     st = initial_state(profile, A, theta, P)
     st, sys_, _ = continue_to(st, P, profile, A)
     return st, sys_

@@ -82,3 +82,14 @@ def test_warm_starts_skip_a_side_that_already_failed() -> None:
     assert rot._starts(0.0) == [2.0]
     assert rot._starts(-2.5) == [-3.0, -1.0]
     assert rot._starts(6.0) == [5.0]
+
+
+def test_a_rotation_between_two_topologies_straddles() -> None:
+    """Between a rotation solved with one zone and one solved with another, the overlap guess
+    is tried before the warm starts."""
+    rot = _applied_moment._Rotations(profiles.cylinder(1.0), 1.0, 1.0)
+    left, right, both = ([-0.3, -0.28], ), ([3.64, 3.66], ), ([-0.3, -0.28], [3.64, 3.66])
+    rot.solved = {t: (_state(np.ravel(z), 1.0, t), None, 0.0)
+                  for t, z in ((1.0, left), (2.0, right), (3.0, both), (4.0, both))}
+    assert rot._straddles(1.5) and rot._straddles(2.5)
+    assert not rot._straddles(3.5) and not rot._straddles(0.5) and not rot._straddles(5.0)
