@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import analytic
-from analytic import _applied_moment, _newton, profiles
+from analytic import _applied_moment, _continuation, _newton, profiles
 from analytic._sie import Layout
 from compare.audit.cases import make_case
 
@@ -105,3 +105,20 @@ def test_moment_search_is_one_newton_where_the_topology_holds(monkeypatch) -> No
     sol = analytic.solve_normal(case.profile, case.P, case.A, case.M)
     assert not searched and sol.n_zones == 4
     assert abs(sol.M - case.M) <= 1e-10 * case.P * (sol.zones[-1][1] - sol.zones[0][0])
+
+
+def test_no_newton_start_from_zones_recentred_across_each_other(monkeypatch) -> None:
+    """Audit seed 101132 (bi-quadratic punch): its two overlap zones re-centred past each other
+    (edges -0.433, 0.072, -0.072, 0.433) and Newton took 3.3 s from there to fail."""
+    case = make_case(101132)
+    starts = []
+    converge = _continuation.converge
+
+    def recording(st, *args):
+        starts.append(st.layout.edges.copy())
+        return converge(st, *args)
+
+    monkeypatch.setattr(_continuation, "converge", recording)
+    sol = analytic.solve_normal(case.profile, case.P, case.A)
+    assert sol.n_zones == 2 and starts
+    assert all(np.all(np.diff(e) > 0) for e in starts)
