@@ -13,7 +13,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from analytic._continuation import StepFailed, converge, solve_from_first_touch, solve_from_guess
+from analytic._continuation import (
+    MAX_TOPOLOGY_CHANGES,
+    StepFailed,
+    converge,
+    solve_from_first_touch,
+    solve_from_guess,
+)
 from analytic._newton import State
 from analytic._sie import System
 from analytic.errors import ConvergenceError, InputError
@@ -54,6 +60,7 @@ class _Rotations:
         self.profile, self.P, self.A = profile, P, A
         self.solved: dict[float, tuple[State, System, float]] = {}
         self.failed: list[tuple[float, float]] = []  # (from, to) of failed warm starts
+        self.joined: set[tuple] = set()  # topologies the joint Newton started from
 
     def at(self, theta: float) -> tuple[State, System, float] | None:
         """``(state, system, moment)`` at ``theta``, or None where the solve fails or the body
@@ -111,6 +118,20 @@ class _Rotations:
                                    {"theta": theta})
         return r[2]
 
+    def topology(self, theta: float) -> tuple:
+        """The solved state's singular flags and the profile piece under each zone."""
+        lay = self.solved[theta][0].layout
+        mids = lay.edges.reshape(-1, 2).mean(axis=1)
+        return lay.pinned.tobytes(), tuple(self.profile.piece_index(mids).tolist())
+
+
+class _Found(Exception):  # noqa: N818 (a result, not an error)
+    """The joint Newton solved the moment problem during the search (carries the result)."""
+
+    def __init__(self, result: tuple[State, System]) -> None:
+        super().__init__()
+        self.result = result
+
 
 def _same_topology(a: State, b: State) -> bool:
     """Same zones (count, singular edges, each zone overlapping its counterpart)."""
@@ -138,6 +159,7 @@ def _bracket(rot: _Rotations, M: float, theta0: float, step: float):
         if trial is None:
             step *= 0.5
             continue
+        _joint_at(rot, t, M)
         f = trial[2] - M
         if np.sign(f) != np.sign(lo_f):
             return (lo_t, t) if lo_t < t else (t, lo_t), trial
@@ -155,10 +177,14 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[S
     direct = _newton_from(rot, theta0, M)
     if direct is not None:
         return direct
-    (t_lo, t_hi), _ = _bracket(rot, M, theta0, 0.25 * scale)
+    try:
+        (t_lo, t_hi), _ = _bracket(rot, M, theta0, 0.25 * scale)
+        theta = _root(rot, M, t_lo, t_hi, THETA_COARSE * scale)
+    except _Found as found:
+        return found.result
     failed: StepFailed | None = None
-    for xtol in (THETA_COARSE * scale, THETA_XTOL * max(scale, 1.0)):
-        theta = _root(rot, M, t_lo, t_hi, xtol)
+    for xtol in (None, THETA_XTOL * max(scale, 1.0)):
+        theta = theta if xtol is None else _root(rot, M, t_lo, t_hi, xtol, joint=False)
         st, sys_, _ = rot.at(theta) or _failed_at(theta)
         try:
             return converge(st, profile, A, M)
@@ -169,7 +195,21 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[S
     raise ConvergenceError(f"moment polish failed: {failed}", {"theta": theta}) from failed
 
 
-def _newton_from(rot: _Rotations, theta0: float, M: float) -> tuple[State, System] | None:
+def _joint_at(rot: _Rotations, theta: float, M: float) -> None:
+    """Raise :class:`_Found` if the joint Newton from the state solved at ``theta`` (a topology
+    it has not started from yet) solves the moment problem.  Where M(theta) is a step (two
+    small zones far apart, the load passing from one to the other) Brent took ~16
+    fixed-rotation solves to resolve the step; the first state with both zones converges
+    (audit seed 101125).  One Newton solve, no change of topology: a joint Newton through
+    topology events from a state with four zones failed after 0.36 s (audit seed 101401)."""
+    if rot.topology(theta) not in rot.joined:
+        found = _newton_from(rot, theta, M, changes=1)
+        if found is not None:
+            raise _Found(found)
+
+
+def _newton_from(rot: _Rotations, theta0: float, M: float,
+                 changes: int = MAX_TOPOLOGY_CHANGES) -> tuple[State, System] | None:
     """Newton on every unknown (edges, beta and theta, with the topology events) from the
     fixed-rotation solution at ``theta0``, or None if it fails or ends beyond the tilt limits.
     Where the topology holds between ``theta0`` and the solution this is the whole search:
@@ -179,19 +219,29 @@ def _newton_from(rot: _Rotations, theta0: float, M: float) -> tuple[State, Syste
     first = rot.at(theta0)
     if first is None:
         return None
+    rot.joined.add(rot.topology(theta0))
     try:
-        st, sys_ = converge(first[0], rot.profile, rot.A, M)
+        st, sys_ = converge(first[0], rot.profile, rot.A, M, changes)
     except StepFailed:
         return None
     return (st, sys_) if rot.profile.admits_tilt(st.theta) else None
 
 
-def _root(rot: _Rotations, M: float, t_lo: float, t_hi: float, xtol: float) -> float:
-    """The rotation in ``[t_lo, t_hi]`` whose fixed-rotation moment is M, to ``xtol``."""
+def _root(rot: _Rotations, M: float, t_lo: float, t_hi: float, xtol: float,
+          joint: bool = True) -> float:
+    """The rotation in ``[t_lo, t_hi]`` whose fixed-rotation moment is M, to ``xtol``; with
+    ``joint``, :func:`_joint_at` at every new topology on the way (may raise :class:`_Found`)."""
     if t_lo == t_hi:
         return t_lo
+
+    def f(t: float) -> float:
+        m = rot.moment(t)
+        if joint:
+            _joint_at(rot, t, M)
+        return m - M
+
     try:
-        return brentq(lambda t: rot.moment(t) - M, t_lo, t_hi, xtol=xtol, rtol=1e-14)
+        return brentq(f, t_lo, t_hi, xtol=xtol, rtol=1e-14)
     except ValueError as exc:  # a re-solve at a bracket end gave M - M(theta) the other sign
         raise ConvergenceError(f"moment search lost its bracket: {exc}",
                                {"theta_bracket": (t_lo, t_hi)}) from exc

@@ -156,10 +156,13 @@ def _extrapolate(u: list[float], y: list[np.ndarray], at: float) -> np.ndarray:
     return best
 
 
-def converge(st: State, profile: Profile, A: float, M: float | None) -> tuple[State, System]:
+def converge(st: State, profile: Profile, A: float, M: float | None,
+             changes: int = MAX_TOPOLOGY_CHANGES) -> tuple[State, System]:
+    """Newton on ``st``'s topology, then pins and topology events until the state is
+    admissible, with at most ``changes`` Newton solves (one: no change of topology)."""
     history: list[Event] = []
     starts: set[bytes] = set()
-    for _ in range(MAX_TOPOLOGY_CHANGES):
+    for _ in range(changes):
         st = _recentre(st)
         _check_cycle(st.layout, starts, history)
         try:
