@@ -122,3 +122,24 @@ def test_no_newton_start_from_zones_recentred_across_each_other(monkeypatch) -> 
     sol = analytic.solve_normal(case.profile, case.P, case.A)
     assert sol.n_zones == 2 and starts
     assert all(np.all(np.diff(e) > 0) for e in starts)
+
+
+def test_moment_search_ends_at_the_first_state_with_both_zones(monkeypatch) -> None:
+    """Audit seed 101125 (two small zones far apart, moment mode): M(theta) is a step, and the
+    joint Newton from the first fixed-rotation state holding both zones ends the search (Brent
+    resolved the step with ~16 fixed-rotation solves)."""
+    case = make_case(101125)
+    ends = []
+    joint_at = _applied_moment._joint_at
+
+    def recording(rot, theta, M):
+        try:
+            joint_at(rot, theta, M)
+        except _applied_moment._Found:
+            ends.append(rot.solved[theta][0].layout.n)
+            raise
+
+    monkeypatch.setattr(_applied_moment, "_joint_at", recording)
+    sol = analytic.solve_normal(case.profile, case.P, case.A, case.M)
+    assert ends == [2] and sol.n_zones == 2
+    assert abs(sol.M - case.M) <= 1e-10 * case.P * (sol.zones[-1][1] - sol.zones[0][0])
