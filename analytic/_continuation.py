@@ -32,6 +32,11 @@ from analytic.errors import ConvergenceError
 from analytic.profiles import Profile
 
 MAX_TOPOLOGY_CHANGES = 12
+TARGET_RETRIES = 10
+"""The continuation gives up when the step to its target load failed this often, from ever
+closer loads (each retry comes from a state at least half the log-distance closer): a phantom
+overlap at the target (a tabulated spline's gap, issue 29 item 4) made it retry for minutes,
+one 0.2-s failure at a time, until its 400-step guard."""
 
 
 class StepFailed(Exception):
@@ -77,7 +82,7 @@ def continue_to(st: State, P_target: float, profile: Profile, A: float,
                 prev: tuple[State, ...] = ()) -> tuple[State, System, tuple[State, ...]]:
     ratio = 4.0
     sys_ = None
-    guard = 0
+    guard = retries = 0
     while True:
         guard += 1
         if guard > 400:
@@ -93,6 +98,13 @@ def continue_to(st: State, P_target: float, profile: Profile, A: float,
                 if P_next == P_target:
                     return st, sys_, prev
                 continue
+            retries += P_next == P_target
+            if retries >= TARGET_RETRIES:
+                raise ConvergenceError(
+                    f"continuation cannot reach P={P_target:.6g}: the step to it failed "
+                    f"{retries} times, the last from P={st.P:.6g}: {exc}",
+                    {"P_reached": st.P, "P_target": P_target,
+                     "zones": st.layout.zones()}) from exc
             ratio = np.sqrt(P_next / st.P)  # half the failed step (in log P), not of ratio
             if ratio < 1 + 1e-7:
                 raise ConvergenceError(f"continuation stalled at P={st.P:.6g}: {exc}",

@@ -143,3 +143,25 @@ def test_moment_search_ends_at_the_first_state_with_both_zones(monkeypatch) -> N
     sol = analytic.solve_normal(case.profile, case.P, case.A, case.M)
     assert ends == [2] and sol.n_zones == 2
     assert abs(sol.M - case.M) <= 1e-10 * case.P * (sol.zones[-1][1] - sol.zones[0][0])
+
+
+def test_continuation_gives_up_on_a_target_it_cannot_reach(monkeypatch) -> None:
+    """A target load whose every step fails (a phantom overlap there, issue 29 item 4: minutes
+    of retries from ever closer loads) is a ConvergenceError after TARGET_RETRIES attempts."""
+    prof, target = profiles.cylinder(1.0), 1e-3
+    converge = _continuation.converge
+    calls = []
+
+    def failing_at_target(st, *args):
+        calls.append(st.P)
+        if st.P == target:
+            raise _continuation.StepFailed("phantom overlap")
+        return converge(st, *args)
+
+    monkeypatch.setattr(_continuation, "converge", failing_at_target)
+    monkeypatch.setattr(_continuation, "_try_merge", lambda *a: None)
+    start = _continuation.solve_from_guess(prof, 1e-6, 1.0, 0.0)[0]
+    with pytest.raises(analytic.ConvergenceError, match="cannot reach P=0.001") as err:
+        _continuation.continue_to(start, target, prof, 1.0)
+    assert calls.count(target) == _continuation.TARGET_RETRIES
+    assert err.value.diagnostics["P_target"] == target
