@@ -33,13 +33,13 @@ SIZE_FACTOR = 8.0
 #: either sign (free minus phase-locked: +7e-4 / +1.0e-4 / +1.6e-4). (b) overtakes (a) between
 #: levels 0 and 1, so the free ring error changes sign there and falls only 1.5x (-2.27e-4 ->
 #: +1.47e-4, local order 0.63 < MIN_EDGE_ORDER of tests/verification/test_compare_convergence.py;
-#: cattaneo's stick error, where the grading adds little, falls regularly on both: rings 7.5e-3 /
-#: 3.4e-3 / 7.3e-4 / 2.1e-4 at levels -1..2, tensor 7.2e-3 / 2.8e-3 / 5.8e-4 / 2.7e-4). None of the
-#: grading's knobs moves the crossing at less than the tensor mesh's level-1 cost (26.5k DOFs): the
-#: body size (4..16) changes (b) by < 1e-5, the fine margin (0.15 -> 0.5) by -5.3e-5, the transition
-#: trigger (fem.rings.TRANSITION_TRIGGER 3 / 9 instead of 4.5) by +1.4e-4 / -1.6e-5 at level 0 (-29
-#: / +23 % DOFs); transitions at 3x with growth 1.15 / 1.1 give local orders 0.74 / 3.0 at levels 0
-#: -> 1 with 25.9k / 38.8k DOFs at level 1 and 0.64 / 0.35 at 1 -> 2. Keeping (b) below (a) at every
+#: cattaneo's stick error falls regularly on both: rings 7.5e-3 / 3.4e-3 / 7.3e-4 / 2.1e-4 at levels
+#: -1..2, tensor 7.2e-3 / 2.8e-3 / 5.8e-4 / 2.7e-4). None of the grading's knobs moves the crossing
+#: at less than the tensor mesh's level-1 cost (26.5k DOFs): the body size (4..16) changes (b) by <
+#: 1e-5, the fine margin (0.15 -> 0.5) by -5.3e-5, the transition trigger
+#: (fem.rings.TRANSITION_TRIGGER 3 / 9 instead of 4.5) by +1.4e-4 / -1.6e-5 at level 0 (-29 / +23 %
+#: DOFs); transitions at 3x with growth 1.15 / 1.1 give local orders 0.74 / 3.0 at levels 0 -> 1
+#: with 25.9k / 38.8k DOFs at level 1 and 0.64 / 0.35 at 1 -> 2. Keeping (b) below (a) at every
 #: level (rate 1 + 0.1 2^-(level+1) within a window half-span of the fine row, measured with a
 #: two-rate layer_plan not kept) converges at order 2 with one sign (phase-locked -2.44e-3 / -6.1e-4
 #: / -1.7e-4 / -4.1e-5 at levels -1..2) but costs 6.5k / 19.8k / 60k / 200k DOFs against the
