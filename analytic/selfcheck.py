@@ -274,8 +274,8 @@ def check_normal(profile: Profile, zones: list[tuple[float, float]],
     span = max(zones[-1][1] - zones[0][0], 1e-300)
     kinks = _inner_marks(profile, zones)
     targets = approach_targets(zones, singular, kinks)
-    rule = zone_rule(zones, [[t for t in ts if a < t < b] for ts, (a, b) in
-                             zip(targets, zones, strict=True)], kinks, span,
+    rule = zone_rule(zones, [sorted({t for t in (*ts, *profile.knots) if a < t < b}) for ts, (a, b)
+                             in zip(targets, zones, strict=True)], kinks, span,
                      profile.vertical_ends, (*profile.kinks, *profile.corners))
     _check_topology(profile, zones, singular, rule)
     rule, const = with_tails(rule, profile, A)
