@@ -267,12 +267,14 @@ def near_kinks(layout: Layout, profile: Profile, x: np.ndarray) -> list:
     """(indices, kink, zone cuts, clearances beyond them) per interior kink: the points
     closer to it than KINK_ZONE of its shorter piece."""
     out = []
+    marks = cut_marks(profile)
     for a, b in layout.edges.reshape(-1, 2):
         kinks = [q for q in profile.kinks if a < q < b]
         if not kinks:
             continue
-        cuts = [a, *kinks, b]
-        for m, q in enumerate(kinks, start=1):
+        cuts = [a, *(q for q in marks if a < q < b), b]  # the kink's pieces end at spline knots
+        for q in kinks:
+            m = cuts.index(q)
             reach = KINK_ZONE * min(q - cuts[m - 1], cuts[m + 1] - q)
             beyond = (cuts[m - 1] - cuts[m - 2] if m >= 2 else 0.0,
                       cuts[m + 2] - cuts[m + 1] if m + 2 < len(cuts) else 0.0)

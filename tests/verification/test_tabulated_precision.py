@@ -27,6 +27,9 @@ RIGID_TOL = 3e-9
 """Spread of the rigid approach / (A P) (measured <= 3.0e-10 on the same cases)."""
 GAP_TOL = 3e-9
 """|returned gap - recomputed gap| / (A P + |gap|) and -min gap / (A P) (measured <= 2.0e-10)."""
+KINKED_LOAD_TOL = 2e-10
+"""LOAD_TOL for a spline with a kink in or next to the zone (p log-singular there; measured
+1.9e-11 with the edge 2.8e-3 past the kink, as on analytic wedges)."""
 
 TOLERANCES = {"load_quadrature": LOAD_TOL, "moment_quadrature": LOAD_TOL,
               "rigid_approach": RIGID_TOL, "gap_negative": GAP_TOL, "gap_consistency": GAP_TOL,
@@ -41,9 +44,9 @@ def two_cylinder_spline() -> profiles.Profile:
     return profiles.tabulated(x, h)
 
 
-def _assert_precise(sol: analytic.NormalSolution) -> None:
-    bad = [f.line() for f in checks.quadrature_findings(sol)
-           if not f.value <= TOLERANCES[f.check]]
+def _assert_precise(sol: analytic.NormalSolution, load_tol: float = LOAD_TOL) -> None:
+    tol = {**TOLERANCES, "load_quadrature": load_tol, "moment_quadrature": load_tol}
+    bad = [f.line() for f in checks.quadrature_findings(sol) if not f.value <= tol[f.check]]
     assert not bad, "\n".join(bad)
 
 
@@ -58,12 +61,30 @@ def test_spline_profiles_report_their_knots() -> None:
     assert profiles.cylinder(1.0).knots == ()
 
 
-@pytest.mark.parametrize(("P", "M"), [(1e-3, None), (0.02, 0.0)],
+@pytest.mark.parametrize(("P", "M"), [(1e-3, None),
+                                      pytest.param(0.02, 0.0, marks=pytest.mark.slow)],
                          ids=["one_zone", "two_zones_moment"])
 def test_two_cylinder_spline_is_precise(P: float, M: float | None) -> None:
     sol = analytic.solve_normal(two_cylinder_spline(), P, 1.0, M)
     assert sol.n_zones == (1 if P < 0.01 else 2)
     _assert_precise(sol)
+
+
+def kinked_spline() -> profiles.Profile:
+    """``0.1 |x - 0.3| + 0.2 x^2`` at 81 points on [-2, 2] with its kink at the sample 0.3."""
+    x = np.linspace(-2.0, 2.0, 81)
+    return profiles.tabulated(x, 0.1 * np.abs(x - 0.3) + 0.2 * x * x, kinks=[0.3])
+
+
+@pytest.mark.parametrize(("P", "M"), [(0.01, None), (0.05, 0.01)], ids=["edge_past_kink", "moment"])
+def test_kinked_spline_is_precise(P: float, M: float | None) -> None:
+    """A zone ending 2.8e-3 past the kink, and one spanning it in moment mode: refused before
+    (int p off P by 1.2e-6 and 3.4e-6 > the spline tolerance 1e-6; at P = 0.2 it was returned
+    1.6e-6 off, the issue's symptom).  The points near the kink get their graded rule on the
+    pieces between the kink and its neighbouring knots (the zone rule's own cuts)."""
+    sol = analytic.solve_normal(kinked_spline(), P, 1.0, M)
+    assert sol.n_zones == 1
+    _assert_precise(sol, KINKED_LOAD_TOL)
 
 
 @pytest.mark.parametrize("seed", [100467, 360, 229, 28])
