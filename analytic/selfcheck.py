@@ -36,8 +36,9 @@ from analytic.profiles import Profile
 
 LOAD_TOL = 5e-9
 """|int p - reported| per zone and in total, relative to P.  Measured worst (issue 29) over the
-solves of the fast suite, the 16 library cases, the audit regression list (87 seeds, 9 cases)
-and audit seeds 0-599 and 100000-100299 (2100 checks), where EDGE_ROUNDING adds < 1e-12:
+solves of 20 analytic test files of the fast suite, the 16 library cases, the audit regression
+list (87 seeds, 9 cases) and audit seeds 0-599 and 100000-100299 (2281 checks), where
+EDGE_ROUNDING adds < 1e-12:
 4.3e-10 (a circular-cornered punch pinned at its arcs' vertical ends,
 tests/verification/test_corner_end.py), 4.4e-11 elsewhere; tabulated splines, with the zone
 rule cut at their knots, 6.4e-12.  A margin of 11 over the worst.  The wrong answers of
