@@ -74,19 +74,22 @@ def test_contact_beyond_a_corner_step_is_caught() -> None:
 
 
 def test_errors_the_old_tolerances_accepted_are_caught() -> None:
-    """Before issue 29 the load tolerance was 1e-8 P, and 1e-6 P on tabulated splines: a Hertz
-    pressure 8e-9 too large, and a spline's 1e-7 too large, passed; both fail now, and 0.3 of
-    LOAD_TOL passes."""
+    """Before issue 29 the tolerances were 1e-6 P / 1e-5 A P on tabulated splines and 1e-7 A P
+    on the approach: a spline's pressure 1e-7 too large passed, and so did a Hertz pressure on a
+    zone 1e-7 wider than its own (delta spread 6e-8 A P); both fail now, 0.3 LOAD_TOL passes."""
     P, A = 1.0, 1.0
     a = np.sqrt(2 * A * P / np.pi)
     x = np.linspace(-2.0, 2.0, 41)
     for prof in (profiles.cylinder(1.0), profiles.tabulated(x, x * x / 2)):
         args = (prof, [(-a, a)], [(False, False)], [P], P, None, 0.0, A)
-        for factor in (8e-9, 1e-7):
-            with pytest.raises(ConvergenceError, match="load"):
-                check_normal(*args, lambda x, f=factor: (1 + f) * hertz_pressure(a, P)(x))
+        with pytest.raises(ConvergenceError, match="load"):
+            check_normal(*args, lambda x: (1 + 1e-7) * hertz_pressure(a, P)(x))
         assert check_normal(*args, lambda x: (1 + 0.3 * LOAD_TOL) * hertz_pressure(a, P)(x)
                             ).load < LOAD_TOL
+    wide = (1 + 1e-7) * a
+    with pytest.raises(ConvergenceError, match="approach"):
+        check_normal(profiles.cylinder(1.0), [(-wide, wide)], [(False, False)], [P], P, None,
+                     0.0, A, hertz_pressure(wide, P))
 
 
 def test_allowances_follow_the_rounding_of_edges_and_heights() -> None:
