@@ -1,7 +1,8 @@
 """Full-field recovery of every increment from the condensed solution.
 
 One blocked solve with the existing factor gives the clamped-top response of both
-bodies to the pair forces of all increments; body 1 then gets the plate's rigid
+bodies to the pair forces of all increments (with CHOLMOD's per-body factors only the backward
+sweep, ``Factor.pair_solve``); body 1 then gets the plate's rigid
 motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are recovered as
 ``K1 u1`` on the top dofs; stresses are projected (L2) onto the nodal basis on demand.
 """
@@ -43,7 +44,10 @@ class FieldRecovery:
         """Recover the full fields of a list of converged contact states."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
-        Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
+        if model.factor.pair_solve is not None:
+            Uf = model.factor.pair_solve(lam)
+        else:
+            Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
         N1 = disc.bases[0].N
         U = np.zeros((disc.n_dofs, lam.shape[1]))
         U[model.free] = Uf
