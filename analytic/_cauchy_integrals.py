@@ -147,22 +147,40 @@ def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: n
     e = ((end - w.real[:, None]) + off0
          + 2 * half * np.sin(t0 + 0.5 * dt) * np.sin(0.5 * dt))
     uf = (t0 + dt - 0.5 * (ta + tb)[:, None]) / th[:, None]
-    G = np.polynomial.legendre.legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]
+    G = (_legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]).astype(complex)
     inv = 1.0 / (e - 1j * w.imag[:, None])
     k1 = wf * inv
     return _sums(k1, G), _sums(k1 * inv, G)
 
 
+def _legvander(x: np.ndarray, deg: int) -> np.ndarray:
+    """``np.polynomial.legendre.legvander(x, deg)`` with the same operations in the same order
+    (bit for bit the same array, same memory layout) but in place, without the temporaries of
+    every degree (the refined sums spend most of their time here)."""
+    v = np.empty((deg + 1, *x.shape))
+    v[0] = x * 0 + 1
+    if deg > 0:
+        v[1] = x
+        a, b = np.empty_like(x), np.empty_like(x)
+        for i in range(2, deg + 1):
+            np.multiply(v[i - 1], x, out=a)
+            a *= 2 * i - 1
+            np.multiply(v[i - 2], i - 1, out=b)
+            np.subtract(a, b, out=a)
+            np.divide(a, i, out=v[i])
+    return np.moveaxis(v, 0, -1)
+
+
 def _sums(k: np.ndarray, G: np.ndarray) -> np.ndarray:
-    """Per row n: ``sum_f k[n, f] G[n, f, :]``."""
-    return (k[:, None, :] @ G.astype(complex))[:, 0, :]
+    """Per row n: ``sum_f k[n, f] G[n, f, :]`` (G complex: complex @ complex runs in BLAS)."""
+    return (k[:, None, :] @ G)[:, 0, :]
 
 
 def _block_sums(rule: Rule, w: np.ndarray, jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target)."""
     idx = rule.nodes(jp)
     k1 = 1.0 / (rule.s[idx] - w[:, None])
-    WG = rule.wt[idx][..., None] * rule.G[idx]
+    WG = (rule.wt[idx][..., None] * rule.G[idx]).astype(complex)
     return _sums(k1, WG), _sums(k1 * k1, WG)
 
 
