@@ -33,7 +33,7 @@ import analytic
 import fem
 from compare import metrics as mt
 from compare._memo import memo
-from compare.analytic_side import AnalyticResult
+from compare.analytic_side import AnalyticResult, stick_solution
 from compare.cases import Case
 from compare.fem_side import kinks
 from fem.bulk import mass_matrix
@@ -211,8 +211,7 @@ def _analytic_states(case: Case, an: AnalyticResult) -> list[tuple[int, float, o
     out: list[tuple[int, float, object]] = [(1, 0.0, an.normal)]
     for st in an.samples:
         Q0 = None if st.stage == 2 else case.Q0
-        out.append((st.stage, st.Q, analytic.solve_stick(an.normal, case.mu, st.Q, Q0,
-                                                         allow_full_slip=True)))
+        out.append((st.stage, st.Q, stick_solution(an.normal, case.mu, st.Q, Q0)))
     return out
 
 
