@@ -36,7 +36,6 @@ from compare._memo import memo
 from compare.analytic_side import AnalyticResult, stick_solution
 from compare.cases import Case
 from compare.fem_side import kinks
-from fem.bulk import mass_matrix
 
 NAN = float("nan")
 #: The metrics of :func:`stress_metrics`.
@@ -91,7 +90,7 @@ def body2_xy(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray]:
 
 def body2_nodes(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(x, y, w)`` of body 2's stress nodes, ``w`` the lumped-mass (area) weights."""
-    w = np.asarray(mass_matrix(hist.fields.disc.scalar_bases[1]).sum(axis=1)).ravel()
+    w = hist.fields.lumped_mass(1)
     return (*body2_xy(hist), w)
 
 

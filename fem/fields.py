@@ -38,6 +38,7 @@ class FieldRecovery:
         self.lever = float(np.max(np.hypot(xy[0], xy[1])))
         self._stress = {}
         self._mass = {}
+        self._projector = {}
 
     @classmethod
     def from_states(cls, model, states) -> FieldRecovery:
@@ -83,6 +84,17 @@ class FieldRecovery:
         """Nodal stresses of one body (0: body 1, 1: body 2) at increment i (computed once)."""
         return self.body_stresses([i], body)[0]
 
+    def mass(self, body: int):
+        """Scalar nodal mass matrix of one body (assembled once; the stress projection and the
+        lumped nodal weights of the stress metrics share it)."""
+        if body not in self._mass:
+            self._mass[body] = mass_matrix(self.disc.scalar_bases[body])
+        return self._mass[body]
+
+    def lumped_mass(self, body: int) -> np.ndarray:
+        """Row sums of :meth:`mass` (the area of each scalar node)."""
+        return np.asarray(self.mass(body).sum(axis=1)).ravel()
+
     def body_stresses(self, indices, body: int) -> list[np.ndarray]:
         """Nodal stresses of one body at several increments; those not yet computed are
         projected together (one multi-RHS solve with the body's mass factor)."""
@@ -95,13 +107,13 @@ class FieldRecovery:
     def _project(self, body: int, cols: list[int]) -> list[np.ndarray]:
         """Plane-strain stresses (sxx, syy, sxy, szz) of increments ``cols`` of one body, L2
         projected onto its scalar nodal basis: ``M s = int phi sigma(u) dx`` per component."""
-        if body not in self._mass:  # one factorisation and one operator per body
+        if body not in self._projector:  # one factorisation and one operator per body
             scalar = self.disc.scalar_bases[body]
             strain = strain_operators(self.disc.bases[body])
             load = load_operator(scalar)
-            self._mass[body] = (factorize(mass_matrix(scalar), self.backend),
-                                tuple((load @ B).tocsr() for B in strain))
-        mass, (Rxx, Ryy, Rxy) = self._mass[body]
+            self._projector[body] = (factorize(self.mass(body), self.backend),
+                                     tuple((load @ B).tocsr() for B in strain))
+        mass, (Rxx, Ryy, Rxy) = self._projector[body]
         E, nu = self.disc.E, self.disc.nu
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
         U = self.U[body][:, cols]
