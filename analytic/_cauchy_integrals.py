@@ -176,11 +176,18 @@ def _sums(k: np.ndarray, G: np.ndarray) -> np.ndarray:
     return (k[:, None, :] @ G)[:, 0, :]
 
 
-def _block_sums(rule: Rule, w: np.ndarray, jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target)."""
+def _weighted(rule: Rule) -> np.ndarray:
+    """``wt G`` of every node of a rule as complex (n_nodes, 2), formed once per evaluation."""
+    return (rule.wt[:, None] * rule.G).astype(complex)
+
+
+def _block_sums(rule: Rule, WG: np.ndarray, w: np.ndarray, jp: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target); ``WG``:
+    the rule's :func:`_weighted` nodal data."""
     idx = rule.nodes(jp)
     k1 = 1.0 / (rule.s[idx] - w[:, None])
-    WG = (rule.wt[idx][..., None] * rule.G[idx]).astype(complex)
+    WG = WG[idx]
     return _sums(k1, WG), _sums(k1 * k1, WG)
 
 
@@ -205,22 +212,25 @@ def cauchy(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     WG = np.concatenate([quad.coarse.wt[crs, None] * quad.coarse.G[crs],
                          pan.wt[nodes, None] * pan.G[nodes]])
     F, dF = _far(s, WG, w)
+    weighted = _weighted(quad.coarse), _weighted(pan)
     for i in range(0, w.size, TARGET_CHUNK):
         part = w[i:i + TARGET_CHUNK]
-        near_sub = _swap_coarse(quad, part, F[i:i + TARGET_CHUNK], dF[i:i + TARGET_CHUNK])
+        near_sub = _swap_coarse(quad, weighted, part, F[i:i + TARGET_CHUNK],
+                                dF[i:i + TARGET_CHUNK])
         it, jp, up = _near_pairs(pan, part)
         keep = in_far[jp] | near_sub[it, pan.parent[jp]]
         it, jp, up = it[keep], jp[keep], up[keep]
         if it.size:
             _correct(F, dF, i + it, _refined(pan, part[it], jp, up),
-                     _block_sums(pan, part[it], jp))
+                     _block_sums(pan, weighted[1], part[it], jp))
     return F, dF
 
 
-def _swap_coarse(quad: Quadrature, w: np.ndarray, F: np.ndarray, dF: np.ndarray
-                 ) -> np.ndarray:
+def _swap_coarse(quad: Quadrature, weighted: tuple[np.ndarray, np.ndarray], w: np.ndarray,
+                 F: np.ndarray, dF: np.ndarray) -> np.ndarray:
     """Replace the coarse sums by panel sums for targets near a smooth sub-interval (in place);
-    returns the (n_targets, n_sub) mask of those pairs."""
+    returns the (n_targets, n_sub) mask of those pairs.  ``weighted``: the coarse and panel
+    rules' :func:`_weighted` nodal data."""
     near = np.zeros((w.size, quad.smooth.size), bool)
     if not quad.smooth.any():
         return near
@@ -229,11 +239,12 @@ def _swap_coarse(quad: Quadrature, w: np.ndarray, F: np.ndarray, dF: np.ndarray
     it, jc = it[use], jc[use]
     sub = quad.coarse.parent[jc]
     near[it, sub] = True
-    _correct(F, dF, it, (0.0, 0.0), _block_sums(quad.coarse, w[it], jc))
+    _correct(F, dF, it, (0.0, 0.0), _block_sums(quad.coarse, weighted[0], w[it], jc))
     first = np.searchsorted(quad.panels.parent, sub)  # a sub-interval's panels are consecutive
     count = np.bincount(quad.panels.parent, minlength=quad.smooth.size)[sub]
     for j in range(int(count.max(initial=0))):
         m = j < count
-        _correct(F, dF, it[m], _block_sums(quad.panels, w[it[m]], first[m] + j), (0.0, 0.0))
+        _correct(F, dF, it[m], _block_sums(quad.panels, weighted[1], w[it[m]], first[m] + j),
+                 (0.0, 0.0))
     return near
 
