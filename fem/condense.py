@@ -16,15 +16,25 @@ Two ways to get C from ONE factorisation per body:
 - other backends (or bodies coupled in K): blocked multi-RHS solves ``K^{-1} E``.
 All contact iterations then work with the small dense C.
 
+Full-field recovery (``Factor.pair_solve``): a pair load ``f`` is zero off the pair dofs, which
+the per-body factor orders last, so the forward solve ``L y = [0; f]`` is ``y = [0; L22^{-1} f]``
+(a dense triangular solve with the kept trailing block) and the displacement needs only the
+backward sweep ``L^T x = y`` through the sparse factor: half the work of a general solve, for
+all increments at once (multi-RHS).  ``L22`` is kept packed (``2n (2n + 1) / 2`` numbers per
+body).
+
 Ordering of pair quantities: ``[t_0 .. t_{n-1}, n_0 .. n_{n-1}]`` (tangential x
 components first, then normal y components).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg.lapack import dpotri
+from scipy.linalg import solve_triangular
+from scipy.linalg.lapack import dpotri, dtpttr, dtrttp
 from scipy.sparse.csgraph import connected_components
 
 from .bulk import Discretisation
@@ -64,7 +74,12 @@ def condense(
     if backend == "cholmod":
         return schur_cholmod(K, f1, f2)
     factor = factorize(K, backend)
-    return factor, compliance(factor, f1, f2)
+    return with_pair_loads(factor, f1, f2), compliance(factor, f1, f2)
+
+
+def with_pair_loads(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> Factor:
+    """The factor with ``pair_solve`` as a general solve of the pair loads."""
+    return replace(factor, pair_solve=lambda lam: factor.solve(pair_loads(factor.n, f1, f2, lam)))
 
 
 def compliance(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
@@ -96,12 +111,12 @@ def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Fac
     blocks = body_blocks(K, f1, f2)
     if blocks is None:
         factor = factorize(K, "cholmod")
-        return factor, compliance(factor, f1, f2)
+        return with_pair_loads(factor, f1, f2), compliance(factor, f1, f2)
     parts, C = [], None
     for idx, pairs in zip(blocks, (f1, f2), strict=True):
         local = np.searchsorted(idx, pairs)
-        chol, perm, Cb = body_compliance(K[idx][:, idx].tocsc(), local)
-        parts.append((idx, perm, chol))
+        chol, perm, Cb, packed = body_compliance(K[idx][:, idx].tocsc(), local)
+        parts.append((idx, perm, chol, packed))
         C = Cb if C is None else np.add(C, Cb, out=C)
         del Cb
     mirror_lower(C)
@@ -109,19 +124,40 @@ def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Fac
     def solve(b: np.ndarray) -> np.ndarray:
         b = np.asarray(b, dtype=float)
         out = np.empty_like(b)
-        for idx, perm, chol in parts:
+        for idx, perm, chol, _ in parts:
             x = np.empty_like(b[idx])
             x[perm] = chol(b[idx][perm])
             out[idx] = x
         return out
 
-    return Factor(backend="cholmod", solve=solve, n=K.shape[0]), C
+    def pair_solve(lam: np.ndarray) -> np.ndarray:
+        lam = np.atleast_2d(np.asarray(lam, dtype=float).T).T
+        out = np.empty((K.shape[0], lam.shape[1]))
+        for (idx, perm, chol, packed), sign in zip(parts, (1.0, -1.0), strict=True):
+            out[idx[perm]] = backward_solve(chol, packed, sign * lam, idx.size)
+        return out
+
+    return Factor(backend="cholmod", solve=solve, n=K.shape[0], pair_solve=pair_solve), C
+
+
+def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarray:
+    """``x = K_b^{-1} [0; f]`` (the body's permuted order, n dofs) for loads f (columns) on
+    the m trailing dofs: ``y = [0; L22^{-1} f]`` then ``L^T x = y`` (no forward sweep)."""
+    m = f.shape[0]
+    L22, info = dtpttr(m, packed, uplo="L")
+    if info != 0:
+        raise ConvergenceError(f"recovery: LAPACK tpttr failed (info={info})")
+    y = np.zeros((n, f.shape[1]))
+    y[-m:] = solve_triangular(L22, f, lower=True, check_finite=False)
+    del L22
+    return chol.solve_Lt(y, use_LDLt_decomposition=False)
 
 
 def body_compliance(Kb: sp.csc_matrix, gamma: np.ndarray):
-    """``(chol, perm, C_b)`` of one body: CHOLMOD factor of ``Kb[perm][:, perm]`` with the pair
-    dofs ``gamma`` last, and ``C_b = (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing
-    factor block ``L22`` (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri."""
+    """``(chol, perm, C_b, packed)`` of one body: CHOLMOD factor of ``Kb[perm][:, perm]`` with
+    the pair dofs ``gamma`` last, ``C_b = (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing
+    factor block ``L22`` (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and
+    ``L22`` itself packed (lower, LAPACK ``trttp``) for the recovery's backward solves."""
     from sksparse.cholmod import analyze, cholesky
 
     inner = np.setdiff1d(np.arange(Kb.shape[0]), gamma)
@@ -129,10 +165,13 @@ def body_compliance(Kb: sp.csc_matrix, gamma: np.ndarray):
     chol = cholesky(Kb[perm][:, perm].tocsc(), ordering_method="natural")
     m = gamma.size
     L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
+    packed, info = dtrttp(L22, uplo="L")
+    if info != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK trttp failed (info={info})")
     Cb, info = dpotri(L22, lower=1, overwrite_c=1)
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK potri failed (info={info})")
-    return chol, perm, Cb
+    return chol, perm, Cb, packed
 
 
 def mirror_lower(A: np.ndarray) -> None:
