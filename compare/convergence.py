@@ -150,6 +150,22 @@ class ConvergenceStudy:
                 "finest runs are not in the asymptotic range of a power law, so the edges are "
                 "judged by their observed orders only")
 
+    def edge_offsets(self) -> list[float]:
+        """Per run the signed edge error of largest size, outward positive (the FE zone wider
+        than the analytic one), relative to its zone width."""
+        an = np.asarray(self.analytic_edges, float)
+        fe = np.asarray(self.fem_edges, float)
+        widths = np.repeat(an[1::2] - an[0::2], 2)
+        out = np.where(np.arange(an.size) % 2 == 0, an - fe, fe - an) / widths
+        return [float(r[np.argmax(np.abs(r))]) for r in out]
+
+    def offset_crossings(self) -> list[tuple]:
+        """(value_i, value_i+1) between which the edge offset changes sign: two edge-error
+        terms of opposite sign cross there, so the edge error is not monotone (not a floor)."""
+        off = self.edge_offsets()
+        return [(self.values[i], self.values[i + 1]) for i in range(len(off) - 1)
+                if off[i] * off[i + 1] < 0]
+
     def applies(self, metric: str) -> bool:
         """False for a metric the case does not have (stick and shear of a normal-only case)."""
         return bool(np.any(np.isfinite(self.errors[metric])))
@@ -169,6 +185,8 @@ class ConvergenceStudy:
                 "richardson_error": _clean(self.richardson_error),
                 "edge_shift": _clean(self.edge_shift),
                 "converges": self.converges, "timings": list(self.timings),
+                "edge_offsets": _clean(self.edge_offsets()),
+                "offset_crossings": [list(c) for c in self.offset_crossings()],
                 "phase_locked": self.phase_locked, "phase": phase_text(self.phase_locked)}
 
 
@@ -349,4 +367,9 @@ def convergence_text(st: ConvergenceStudy) -> str:
     if st.kind == "h":
         lines.append(f"  {st.richardson_line()}")
     lines.append(f"  FE edges move by {st.edge_shift:.3e} of the zone width over the runs")
+    lines.append(f"  {'edge offset (wider +)':<22} "
+                 + " ".join(f"{v:+10.3e}" for v in st.edge_offsets()))
+    for a, b in st.offset_crossings():
+        lines.append(f"  the edge offset changes sign from {head} {a:g} to {b:g}: two edge-error "
+                     "terms of opposite sign cross there (non-monotone, not a floor)")
     return "\n".join(lines)
