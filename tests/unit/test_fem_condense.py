@@ -70,3 +70,40 @@ def test_nested_dissection_ordering_of_large_bodies_gives_the_same_compliance(mo
     assert np.allclose(C, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
     b = np.random.default_rng(1).normal(size=(K.shape[0], 2))
     assert np.allclose(K @ factor.solve(b), b)
+
+
+def elastic_like(m: int) -> sp.csc_matrix:
+    """SPD stiffness-like matrix with two interleaved dofs (x, y) per node of an m x m grid."""
+    return sp.kron(laplacian(m), np.array([[2.0, 0.5], [0.5, 2.0]])).tocsc()
+
+
+def test_a_mirror_body_reuses_the_first_factor_and_gives_the_same_compliance():
+    import fem.condense as cd
+
+    m = 10
+    K1 = elastic_like(m)
+    d = np.tile([1.0, -1.0], m * m)  # the mirror flips the y dofs
+    K2 = (sp.diags(d) @ K1 @ sp.diags(d)).tocsc()
+    K = sp.block_diag([K1, K2], format="csc")
+    f1, f2 = pairs(2 * m, 0), pairs(2 * m, 2 * m * m)
+    assert np.array_equal(cd.mirror_signs(K1, K2, f1, f2 - 2 * m * m), d)
+    factor, C = condense(K, f1, f2, "cholmod")
+    ref = compliance(factorize(K, "scipy-splu"), f1, f2)
+    assert np.allclose(C, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
+    assert np.array_equal(C, C.T)
+    b = np.random.default_rng(2).normal(size=(K.shape[0], 3))
+    assert np.allclose(K @ factor.solve(b), b)
+    assert np.allclose(K @ factor.solve(b[:, 0]), b[:, 0])
+
+
+def test_no_mirror_when_the_bodies_differ():
+    import fem.condense as cd
+
+    K1 = elastic_like(6)
+    g = np.arange(12)
+    assert cd.mirror_signs(K1, (2.0 * K1).tocsc(), g, g) is None  # not D K1 D
+    K2 = K1.copy()
+    K2.data[0] *= 1 + 1e-9  # off by more than rounding
+    assert cd.mirror_signs(K1, K2, g, g) is None
+    assert cd.mirror_signs(K1, K1, g, g + 1) is None  # pair dofs elsewhere
+    assert np.array_equal(cd.mirror_signs(K1, K1, g, g), np.ones(K1.shape[0]))
