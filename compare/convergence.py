@@ -26,7 +26,15 @@ the edge error (and the pressure error next to it) swings with that phase, so an
 smooth-edge case is non-monotone.  ``phase_locked=True`` (``converge --phase-locked``) puts a
 mesh node on every analytic contact edge of the full normal load at every level
 (``fem.edge_nodes``, as the slow Hertz order test does), which measures the order itself; the
-study says which one ran (``phase_locked``, in its verdict line and summary).
+study says which one ran (``phase_locked``, in its verdict line and summary).  Even locked, the
+edge error is the sum of terms of opposite sign: on the ring mesh (growth 1.2, Hertz) the
+discretisation widens the zone (order ~2: -1.6e-4, -3.4e-5, -7e-6 of the width at levels 1-3)
+and the rings' grading narrows it (order 1, as (rate - 1)**2 with fem.mesh.near_growth: 1.5e-4,
+6.9e-5, 3.5e-5; a quarter with growth 1.1: from the difference of the runs at growth 1.2 and
+1.1, 1.1e-4, 5.2e-5, 2.6e-5, scaled by (rate - 1)**2; it predicted level 4 within 10 %), so
+the error falls, crosses zero and rises before it falls at order 1 (3.3e-4, 1.3e-5, 3.5e-5,
+2.8e-5, 1.45e-5 at levels 0-4): a crossing, not a floor.  The study prints the signed edge
+offset per run and names a sign change (:meth:`ConvergenceStudy.offset_crossings`).
 
 Honesty: besides the least-squares orders the study reports the local order and the ratio of
 successive errors; an error whose local order over the last refinement is below STALL_ORDER
