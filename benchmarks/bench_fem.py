@@ -123,10 +123,11 @@ def cap_memory(max_gb: float) -> None:
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
 
-def level_row(level: int, layout: str) -> dict:
+def level_row(level: int, layout: str, growth: float | None = None) -> dict:
     """One refinement level of the library case cattaneo (run in a fresh process): CPU seconds
     per phase (on a shared machine the CPU time is the stable one), the process's peak RSS and
-    its growth over the run, errors; ``{'failed': ...}`` if it does not fit."""
+    its growth over the run, errors; ``{'failed': ...}`` if it does not fit.  ``growth``: the
+    rings' growth (None: the case's)."""
     from compare.analytic_side import solve_case
     from compare.cases import load_case
     from compare.convergence import refined_growth
@@ -134,6 +135,8 @@ def level_row(level: int, layout: str) -> dict:
     from compare.run import evaluate
 
     case = load_case("cattaneo").with_fem(layout=layout)
+    if growth is not None and layout == "rings":
+        case = case.with_fem(growth=growth)
     case = case.with_fem(level=level, growth=refined_growth(case, level))
     an = solve_case(case)
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
@@ -158,13 +161,13 @@ def level_row(level: int, layout: str) -> dict:
                 edge=metrics["edge_error_max"], stick=metrics["stick_edge_error_max"])
 
 
-def run_level(level: int, layout: str, max_gb: float) -> dict:
+def run_level(level: int, layout: str, max_gb: float, growth: float | None = None) -> dict:
     """level_row in a fresh capped process; {'failed': why} if it does not fit or fails."""
     ctx = get_context("spawn")
     try:
         with ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=cap_memory,
                                  initargs=(max_gb,)) as pool:
-            row = pool.submit(level_row, level, layout).result()
+            row = pool.submit(level_row, level, layout, growth).result()
     except MemoryError:
         row = dict(layout=layout, level=level, failed="does not fit")
     except BrokenProcessPool:
@@ -236,15 +239,17 @@ def growth_text(layout: str, rows: list[dict]) -> str:
             f"{exponent(n, [r['memory'] for r in ok]):.2f}\n  history time local: {local}")
 
 
-def accuracy_table(levels: list[int], tensor_levels: list[int], max_gb: float) -> None:
+def accuracy_table(levels: list[int], tensor_levels: list[int], max_gb: float,
+                   growth: float | None = None) -> None:
     runs = [(lv, "rings") for lv in levels] + [(lv, "tensor") for lv in tensor_levels]
     rows = []
     for lv, layout in runs:
-        rows.append(run_level(lv, layout, max_gb))
+        rows.append(run_level(lv, layout, max_gb, growth))
         print(row_text(rows[-1], None), flush=True)
     print()
     print("Hertz (stage 1) + Cattaneo (stages 2-3), library case cattaneo; CPU seconds per "
-          "phase (one BLAS thread), peak RSS of the run's process, errors of the width")
+          "phase (one BLAS thread), peak RSS of the run's process, errors of the width; ring "
+          f"growth {'of the case' if growth is None else growth}")
     print(HEAD)
     for layout in ("rings", "tensor"):
         prev = None
@@ -331,9 +336,11 @@ def main() -> None:
                     help="tensor-mesh levels (today's reference; level 4 needs ~14 GB)")
     ap.add_argument("--max-gb", type=float, default=8.0,
                     help="address-space cap per run (GB); a level that needs more says so")
+    ap.add_argument("--growth", type=float, default=None,
+                    help="growth of the ring meshes (default: the case's)")
     ap.add_argument("--no-cost", action="store_true", help="skip the default-mesh cost table")
     args = ap.parse_args()
-    accuracy_table(args.levels, args.tensor_levels, args.max_gb)
+    accuracy_table(args.levels, args.tensor_levels, args.max_gb, args.growth)
     if not args.no_cost:
         print()
         cost_table()
