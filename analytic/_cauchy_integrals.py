@@ -147,22 +147,47 @@ def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: n
     e = ((end - w.real[:, None]) + off0
          + 2 * half * np.sin(t0 + 0.5 * dt) * np.sin(0.5 * dt))
     uf = (t0 + dt - 0.5 * (ta + tb)[:, None]) / th[:, None]
-    G = np.polynomial.legendre.legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]
+    G = (_legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]).astype(complex)
     inv = 1.0 / (e - 1j * w.imag[:, None])
     k1 = wf * inv
     return _sums(k1, G), _sums(k1 * inv, G)
 
 
+def _legvander(x: np.ndarray, deg: int) -> np.ndarray:
+    """``np.polynomial.legendre.legvander(x, deg)`` with the same operations in the same order
+    (bit for bit the same array, same memory layout) but in place, without the temporaries of
+    every degree (the refined sums spend most of their time here)."""
+    v = np.empty((deg + 1, *x.shape))
+    v[0] = x * 0 + 1
+    if deg > 0:
+        v[1] = x
+        a, b = np.empty_like(x), np.empty_like(x)
+        for i in range(2, deg + 1):
+            np.multiply(v[i - 1], x, out=a)
+            a *= 2 * i - 1
+            np.multiply(v[i - 2], i - 1, out=b)
+            np.subtract(a, b, out=a)
+            np.divide(a, i, out=v[i])
+    return np.moveaxis(v, 0, -1)
+
+
 def _sums(k: np.ndarray, G: np.ndarray) -> np.ndarray:
-    """Per row n: ``sum_f k[n, f] G[n, f, :]``."""
-    return (k[:, None, :] @ G.astype(complex))[:, 0, :]
+    """Per row n: ``sum_f k[n, f] G[n, f, :]`` (G complex: complex @ complex runs in BLAS)."""
+    return (k[:, None, :] @ G)[:, 0, :]
 
 
-def _block_sums(rule: Rule, w: np.ndarray, jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target)."""
+def _weighted(rule: Rule) -> np.ndarray:
+    """``wt G`` of every node of a rule as complex (n_nodes, 2), formed once per evaluation."""
+    return (rule.wt[:, None] * rule.G).astype(complex)
+
+
+def _block_sums(rule: Rule, WG: np.ndarray, w: np.ndarray, jp: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target); ``WG``:
+    the rule's :func:`_weighted` nodal data."""
     idx = rule.nodes(jp)
     k1 = 1.0 / (rule.s[idx] - w[:, None])
-    WG = rule.wt[idx][..., None] * rule.G[idx]
+    WG = WG[idx]
     return _sums(k1, WG), _sums(k1 * k1, WG)
 
 
@@ -187,22 +212,25 @@ def cauchy(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     WG = np.concatenate([quad.coarse.wt[crs, None] * quad.coarse.G[crs],
                          pan.wt[nodes, None] * pan.G[nodes]])
     F, dF = _far(s, WG, w)
+    weighted = _weighted(quad.coarse), _weighted(pan)
     for i in range(0, w.size, TARGET_CHUNK):
         part = w[i:i + TARGET_CHUNK]
-        near_sub = _swap_coarse(quad, part, F[i:i + TARGET_CHUNK], dF[i:i + TARGET_CHUNK])
+        near_sub = _swap_coarse(quad, weighted, part, F[i:i + TARGET_CHUNK],
+                                dF[i:i + TARGET_CHUNK])
         it, jp, up = _near_pairs(pan, part)
         keep = in_far[jp] | near_sub[it, pan.parent[jp]]
         it, jp, up = it[keep], jp[keep], up[keep]
         if it.size:
             _correct(F, dF, i + it, _refined(pan, part[it], jp, up),
-                     _block_sums(pan, part[it], jp))
+                     _block_sums(pan, weighted[1], part[it], jp))
     return F, dF
 
 
-def _swap_coarse(quad: Quadrature, w: np.ndarray, F: np.ndarray, dF: np.ndarray
-                 ) -> np.ndarray:
+def _swap_coarse(quad: Quadrature, weighted: tuple[np.ndarray, np.ndarray], w: np.ndarray,
+                 F: np.ndarray, dF: np.ndarray) -> np.ndarray:
     """Replace the coarse sums by panel sums for targets near a smooth sub-interval (in place);
-    returns the (n_targets, n_sub) mask of those pairs."""
+    returns the (n_targets, n_sub) mask of those pairs.  ``weighted``: the coarse and panel
+    rules' :func:`_weighted` nodal data."""
     near = np.zeros((w.size, quad.smooth.size), bool)
     if not quad.smooth.any():
         return near
@@ -211,11 +239,12 @@ def _swap_coarse(quad: Quadrature, w: np.ndarray, F: np.ndarray, dF: np.ndarray
     it, jc = it[use], jc[use]
     sub = quad.coarse.parent[jc]
     near[it, sub] = True
-    _correct(F, dF, it, (0.0, 0.0), _block_sums(quad.coarse, w[it], jc))
+    _correct(F, dF, it, (0.0, 0.0), _block_sums(quad.coarse, weighted[0], w[it], jc))
     first = np.searchsorted(quad.panels.parent, sub)  # a sub-interval's panels are consecutive
     count = np.bincount(quad.panels.parent, minlength=quad.smooth.size)[sub]
     for j in range(int(count.max(initial=0))):
         m = j < count
-        _correct(F, dF, it[m], _block_sums(quad.panels, w[it[m]], first[m] + j), (0.0, 0.0))
+        _correct(F, dF, it[m], _block_sums(quad.panels, weighted[1], w[it[m]], first[m] + j),
+                 (0.0, 0.0))
     return near
 

@@ -36,7 +36,11 @@ class Piece:
     """One analytic piece of a profile, the profile on ``[lo, hi]``.
 
     ``h, dh, d2h`` are vectorised and valid on ``reach`` (which contains ``[lo, hi]``).
-    ``flat`` marks ``dh == 0`` identically (a flat punch face).
+    ``flat`` marks ``dh == 0`` identically (a flat punch face).  ``knots``: where the formula
+    is only C^2 (a cubic spline's knots, where h0''' jumps): quadratures cut there to converge
+    spectrally; ``local``: the analytic (cubic) piece of every interval between ``lo``, the
+    knots and ``hi``, each continued as the same polynomial over ``reach``.  Both are empty for
+    analytic pieces.
     """
 
     lo: float
@@ -46,11 +50,22 @@ class Piece:
     d2h: Func
     reach: tuple[float, float]
     flat: bool = False
+    knots: tuple[float, ...] = field(default=(), compare=False, repr=False)
+    local: tuple[Piece, ...] = field(default=(), compare=False, repr=False)
 
     def shifted(self, lift: float) -> Piece:
         """The same piece raised by ``lift``."""
         h = self.h
-        return replace(self, h=lambda x: h(x) + lift)
+        return replace(self, h=lambda x: h(x) + lift,
+                       local=tuple(pc.shifted(lift) for pc in self.local))
+
+    def analytic_at(self, x: float) -> Piece:
+        """The analytic piece holding x (``local``, the left one at a knot; x inside
+        ``[lo, hi]``): the piece itself when it has no knots."""
+        if not self.local:
+            return self
+        j = int(np.searchsorted(np.array([pc.hi for pc in self.local]), x, side="left"))
+        return self.local[min(j, len(self.local) - 1)]
 
     def clipped(self, lo: float, hi: float) -> Piece:
         """The same formula restricted to ``[lo, hi]``."""
@@ -85,6 +100,12 @@ class Profile:
     @cached_property
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return (np.array([pc.lo for pc in self.pieces]), np.array([pc.hi for pc in self.pieces]))
+
+    @cached_property
+    def knots(self) -> tuple[float, ...]:
+        """x of the spline knots strictly inside the pieces (sorted): h0 is C^2 there, not
+        analytic (tabulated profiles); empty for analytic profiles."""
+        return tuple(sorted({k for pc in self.pieces for k in pc.knots if pc.lo < k < pc.hi}))
 
     @cached_property
     def pieces_have_gaps(self) -> bool:

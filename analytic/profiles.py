@@ -11,6 +11,7 @@ dimensionless.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -192,9 +193,20 @@ def tabulated(x: Sequence[float], h: Sequence[float], kinks: Sequence[float] = (
                                f"consecutive kinks (none between {lo!r} and {hi!r})")
         cs = CubicSpline(x[m], h[m], bc_type="natural" if m.sum() > 2 else "not-a-knot")
         ext = 0.1 * (hi - lo)
-        pieces.append(Piece(lo, hi, cs, cs.derivative(1), cs.derivative(2), (lo - ext, hi + ext)))
+        reach = (lo - ext, hi + ext)
+        pieces.append(Piece(lo, hi, cs, cs.derivative(1), cs.derivative(2), reach,
+                            knots=tuple(float(v) for v in cs.x[1:-1]),
+                            local=_cubic_pieces(cs, reach)))
     return Profile(tuple(pieces), (), tuple(ks), float(x[-1] - x[0]), "tabulated",
                    {"x": x.tolist(), "h": h.tolist(), "kinks": list(ks)})
+
+
+def _cubic_pieces(cs: CubicSpline, reach: tuple[float, float]) -> tuple[Piece, ...]:
+    """The cubic of every interval of ``cs`` as a polynomial piece continued over ``reach``
+    (centred at the interval's left knot, as the spline evaluates it)."""
+    return tuple(replace(_poly_piece(cs.c[:, i].tolist(), float(cs.x[i]), float(cs.x[i + 1]),
+                                     shift=float(cs.x[i])), reach=reach)
+                 for i in range(cs.x.size - 1))
 
 
 # ---------------------------------------------------------------------------------------------

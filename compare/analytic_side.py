@@ -13,6 +13,7 @@ import numpy as np
 
 import analytic
 from analytic import NormalSolution
+from compare._memo import memo
 from compare.cases import Case
 
 
@@ -50,10 +51,19 @@ def solve_normal_case(case: Case) -> NormalSolution:
     return analytic.solve_normal(case.profile, case.P, case.A, case.M)
 
 
+def stick_solution(normal: NormalSolution, mu: float, Q: float, Q0: float | None = None
+                   ) -> analytic.StickSolution:
+    """``analytic.solve_stick(normal, mu, Q, Q0, allow_full_slip=True)``, solved once per normal
+    solution and (mu, Q, Q0): the stress metrics need the same solutions as the stick states."""
+    key = ("stick", float(mu), float(Q), None if Q0 is None else float(Q0))
+    return memo(normal, key, lambda: analytic.solve_stick(normal, mu, Q, Q0,
+                                                          allow_full_slip=True))
+
+
 def stick_state(normal: NormalSolution, mu: float, Q: float, Q0: float | None = None
                 ) -> StickState:
     """Analytic stick state at Q: stage 2 if ``Q0`` is None, else stage 3 coming from Q0."""
-    sol = analytic.solve_stick(normal, mu, Q, Q0, allow_full_slip=True)
+    sol = stick_solution(normal, mu, Q, Q0)
     sticks = tuple(None if z is None else (float(z[0]), float(z[1])) for z in sol.stick_zones)
     slip = tuple(i for i, s in enumerate(sticks) if s is None)
     return StickState(2 if Q0 is None else 3, float(Q), sticks, slip, sol.shear)

@@ -26,7 +26,16 @@ the edge error (and the pressure error next to it) swings with that phase, so an
 smooth-edge case is non-monotone.  ``phase_locked=True`` (``converge --phase-locked``) puts a
 mesh node on every analytic contact edge of the full normal load at every level
 (``fem.edge_nodes``, as the slow Hertz order test does), which measures the order itself; the
-study says which one ran (``phase_locked``, in its verdict line and summary).
+study says which one ran (``phase_locked``, in its verdict line and summary).  Even locked, the
+edge error is the sum of terms of opposite sign: on the ring mesh (growth 1.2, Hertz) the
+discretisation widens the zone (order ~2: -1.6e-4, -3.4e-5, -7e-6 of the width at levels 1-3)
+and the rings' grading narrows it (order 1, as (rate - 1)**2 with fem.mesh.near_growth: 1.5e-4,
+6.9e-5, 3.5e-5; a quarter with growth 1.1: from the difference of the runs at growth 1.2 and
+1.1, 1.1e-4, 5.2e-5, 2.6e-5, scaled by (rate - 1)**2; it predicted level 4 within 10 %), so
+the error falls, crosses zero and rises before it falls at order 1 (3.3e-4, 1.3e-5, 3.5e-5,
+2.8e-5, 1.45e-5, 7.4e-6 at levels 0-5; local orders 0.93, 0.97 from level 3): a crossing,
+not a floor.  The study prints the signed edge
+offset per run and names a sign change (:meth:`ConvergenceStudy.offset_crossings`).
 
 Honesty: besides the least-squares orders the study reports the local order and the ratio of
 successive errors; an error whose local order over the last refinement is below STALL_ORDER
@@ -150,6 +159,22 @@ class ConvergenceStudy:
                 "finest runs are not in the asymptotic range of a power law, so the edges are "
                 "judged by their observed orders only")
 
+    def edge_offsets(self) -> list[float]:
+        """Per run the signed edge error of largest size, outward positive (the FE zone wider
+        than the analytic one), relative to its zone width."""
+        an = np.asarray(self.analytic_edges, float)
+        fe = np.asarray(self.fem_edges, float)
+        widths = np.repeat(an[1::2] - an[0::2], 2)
+        out = np.where(np.arange(an.size) % 2 == 0, an - fe, fe - an) / widths
+        return [float(r[np.argmax(np.abs(r))]) for r in out]
+
+    def offset_crossings(self) -> list[tuple]:
+        """(value_i, value_i+1) between which the edge offset changes sign: two edge-error
+        terms of opposite sign cross there, so the edge error is not monotone (not a floor)."""
+        off = self.edge_offsets()
+        return [(self.values[i], self.values[i + 1]) for i in range(len(off) - 1)
+                if off[i] * off[i + 1] < 0]
+
     def applies(self, metric: str) -> bool:
         """False for a metric the case does not have (stick and shear of a normal-only case)."""
         return bool(np.any(np.isfinite(self.errors[metric])))
@@ -169,6 +194,8 @@ class ConvergenceStudy:
                 "richardson_error": _clean(self.richardson_error),
                 "edge_shift": _clean(self.edge_shift),
                 "converges": self.converges, "timings": list(self.timings),
+                "edge_offsets": _clean(self.edge_offsets()),
+                "offset_crossings": [list(c) for c in self.offset_crossings()],
                 "phase_locked": self.phase_locked, "phase": phase_text(self.phase_locked)}
 
 
@@ -349,4 +376,9 @@ def convergence_text(st: ConvergenceStudy) -> str:
     if st.kind == "h":
         lines.append(f"  {st.richardson_line()}")
     lines.append(f"  FE edges move by {st.edge_shift:.3e} of the zone width over the runs")
+    lines.append(f"  {'edge offset (wider +)':<22} "
+                 + " ".join(f"{v:+10.3e}" for v in st.edge_offsets()))
+    for a, b in st.offset_crossings():
+        lines.append(f"  the edge offset changes sign from {head} {a:g} to {b:g}: two edge-error "
+                     "terms of opposite sign cross there (non-monotone, not a floor)")
     return "\n".join(lines)

@@ -33,10 +33,9 @@ import analytic
 import fem
 from compare import metrics as mt
 from compare._memo import memo
-from compare.analytic_side import AnalyticResult
+from compare.analytic_side import AnalyticResult, stick_solution
 from compare.cases import Case
 from compare.fem_side import kinks
-from fem.bulk import mass_matrix
 
 NAN = float("nan")
 #: The metrics of :func:`stress_metrics`.
@@ -91,7 +90,7 @@ def body2_xy(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray]:
 
 def body2_nodes(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(x, y, w)`` of body 2's stress nodes, ``w`` the lumped-mass (area) weights."""
-    w = np.asarray(mass_matrix(hist.fields.disc.scalar_bases[1]).sum(axis=1)).ravel()
+    w = hist.fields.lumped_mass(1)
     return (*body2_xy(hist), w)
 
 
@@ -211,8 +210,7 @@ def _analytic_states(case: Case, an: AnalyticResult) -> list[tuple[int, float, o
     out: list[tuple[int, float, object]] = [(1, 0.0, an.normal)]
     for st in an.samples:
         Q0 = None if st.stage == 2 else case.Q0
-        out.append((st.stage, st.Q, analytic.solve_stick(an.normal, case.mu, st.Q, Q0,
-                                                         allow_full_slip=True)))
+        out.append((st.stage, st.Q, stick_solution(an.normal, case.mu, st.Q, Q0)))
     return out
 
 
@@ -258,8 +256,10 @@ def stress_metrics(case: Case, an: AnalyticResult, hist: fem.FemHistory
     nodes = body2_nodes(hist)
     points = mt.singular_points(ns.zones, ns.singular, kinks(case))
     keep = box_mask(nodes[0], nodes[1], ns.zones, points)
+    states = analytic_states(case, an)
+    hist.body_stresses([fem_step(hist, stage, Q) for stage, Q, _ in states], 1)  # one batch
     rows = [compare_state(case, hist, stage, Q, sol, nodes, keep, points)
-            for stage, Q, sol in analytic_states(case, an)]
+            for stage, Q, sol in states]
     later = [r for r in rows if r.stage > 1]
     return {"stress_l2_error": max(r.l2_error for r in rows),
             "stress_shape_error": max(r.shape_error for r in rows),

@@ -16,15 +16,25 @@ Two ways to get C from ONE factorisation per body:
 - other backends (or bodies coupled in K): blocked multi-RHS solves ``K^{-1} E``.
 All contact iterations then work with the small dense C.
 
+Full-field recovery (``Factor.pair_solve``): a pair load ``f`` is zero off the pair dofs, which
+the per-body factor orders last, so the forward solve ``L y = [0; f]`` is ``y = [0; L22^{-1} f]``
+(a dense triangular solve with the kept trailing block) and the displacement needs only the
+backward sweep ``L^T x = y`` through the sparse factor: half the work of a general solve, for
+all increments at once (multi-RHS).  ``L22`` is kept packed (``2n (2n + 1) / 2`` numbers per
+body).
+
 Ordering of pair quantities: ``[t_0 .. t_{n-1}, n_0 .. n_{n-1}]`` (tangential x
 components first, then normal y components).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg.lapack import dpotri
+from scipy.linalg import solve_triangular
+from scipy.linalg.lapack import dpotri, dtpttr, dtrttp
 from scipy.sparse.csgraph import connected_components
 
 from .bulk import Discretisation
@@ -33,6 +43,20 @@ from .linsolve import Factor, available_backends, factorize
 
 #: Right-hand sides per blocked solve (memory vs BLAS-3 efficiency).
 RHS_BLOCK = 256
+#: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last).  CHOLMOD's
+#: nested dissection beats its default (AMD) once the pair rows dominate the fill: cattaneo
+#: rings, body 1, numeric factorisation CPU s (nnz L) amd / nesdis: level 2 0.29 / 0.37 (2.9M /
+#: 2.5M), level 3 1.6 / 1.15 (8.4M / 7.1M), level 4 9.3 / 5.6 (25M / 21M); so CHOLMOD's
+#: default (AMD) below NESDIS_MIN_DOFS free dofs of the body (level 2: 32k, level 3: 77k).
+INNER_ORDERING, NESDIS_MIN_DOFS = "nesdis", 50_000
+#: Body 2's stiffness is taken as the mirror image of body 1's (one factorisation for both,
+#: issue 28) when they agree to this relative to the largest entry, a backward error of the
+#: size of the factorisation's own: the generated ring meshes' mirrored assembly differs by a
+#: few ulps (measured 5.4e-16 / 4.3e-16 / 1.9e-15 of max |K| at cattaneo levels 0 / 1 / 4).
+MIRROR_RTOL = 1e-13
+#: Couplings below this (relative to max |K|) are zero up to rounding (x-y couplings that
+#: cancel by symmetry: +-4e-16 of max |K|): their signs are not read.
+MIRROR_SIGNIFICANT = 1e-8
 
 
 def pair_dofs(
@@ -64,7 +88,12 @@ def condense(
     if backend == "cholmod":
         return schur_cholmod(K, f1, f2)
     factor = factorize(K, backend)
-    return factor, compliance(factor, f1, f2)
+    return with_pair_loads(factor, f1, f2), compliance(factor, f1, f2)
+
+
+def with_pair_loads(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> Factor:
+    """The factor with ``pair_solve`` as a general solve of the pair loads."""
+    return replace(factor, pair_solve=lambda lam: factor.solve(pair_loads(factor.n, f1, f2, lam)))
 
 
 def compliance(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
@@ -96,12 +125,19 @@ def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Fac
     blocks = body_blocks(K, f1, f2)
     if blocks is None:
         factor = factorize(K, "cholmod")
-        return factor, compliance(factor, f1, f2)
-    parts, C = [], None
+        return with_pair_loads(factor, f1, f2), compliance(factor, f1, f2)
+    parts, C, first = [], None, None
     for idx, pairs in zip(blocks, (f1, f2), strict=True):
         local = np.searchsorted(idx, pairs)
-        chol, perm, Cb = body_compliance(K[idx][:, idx].tocsc(), local)
-        parts.append((idx, perm, chol))
+        Kb = K[idx][:, idx].tocsc()
+        signs = None if first is None else mirror_signs(first[0], Kb, first[1], local)
+        if signs is not None:  # the mirror image of body 1: its factor, C_2 = D C_1 D
+            parts.append((idx, *first[2:], signs))
+            flip_add(C, signs[local])
+            continue
+        chol, perm, Cb, packed = body_compliance(Kb, local)
+        parts.append((idx, perm, chol, packed, None))
+        first = (Kb, local, perm, chol, packed)
         C = Cb if C is None else np.add(C, Cb, out=C)
         del Cb
     mirror_lower(C)
@@ -109,30 +145,97 @@ def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Fac
     def solve(b: np.ndarray) -> np.ndarray:
         b = np.asarray(b, dtype=float)
         out = np.empty_like(b)
-        for idx, perm, chol in parts:
-            x = np.empty_like(b[idx])
-            x[perm] = chol(b[idx][perm])
-            out[idx] = x
+        for idx, perm, chol, _, signs in parts:
+            bb = b[idx] if signs is None else b[idx] * signs.reshape(-1, *[1] * (b.ndim - 1))
+            x = np.empty_like(bb)
+            x[perm] = chol(bb[perm])
+            out[idx] = x if signs is None else x * signs.reshape(-1, *[1] * (b.ndim - 1))
         return out
 
-    return Factor(backend="cholmod", solve=solve, n=K.shape[0]), C
+    def pair_solve(lam: np.ndarray) -> np.ndarray:
+        lam = np.atleast_2d(np.asarray(lam, dtype=float).T).T
+        out = np.empty((K.shape[0], lam.shape[1]))
+        for (idx, perm, chol, packed, signs), sign in zip(parts, (1.0, -1.0), strict=True):
+            if signs is None:
+                out[idx[perm]] = backward_solve(chol, packed, sign * lam, idx.size)
+                continue
+            d = signs[perm][:, None]  # a mirror body: K_2^-1 = D K_1^-1 D
+            out[idx[perm]] = d * backward_solve(chol, packed, sign * d[-lam.shape[0]:] * lam,
+                                                idx.size)
+        return out
+
+    return Factor(backend="cholmod", solve=solve, n=K.shape[0], pair_solve=pair_solve), C
+
+
+def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarray:
+    """``x = K_b^{-1} [0; f]`` (the body's permuted order, n dofs) for loads f (columns) on
+    the m trailing dofs: ``y = [0; L22^{-1} f]`` then ``L^T x = y`` (no forward sweep)."""
+    m = f.shape[0]
+    L22, info = dtpttr(m, packed, uplo="L")
+    if info != 0:
+        raise ConvergenceError(f"recovery: LAPACK tpttr failed (info={info})")
+    y = np.zeros((n, f.shape[1]))
+    y[-m:] = solve_triangular(L22, f, lower=True, check_finite=False)
+    del L22
+    return chol.solve_Lt(y, use_LDLt_decomposition=False)
+
+
+def mirror_signs(K1: sp.csc_matrix, K2: sp.csc_matrix, g1: np.ndarray, g2: np.ndarray
+                 ) -> np.ndarray | None:
+    """Signs d (+-1 per dof) with ``K2 = D K1 D`` (D = diag d) to MIRROR_RTOL, the pair dofs in
+    the same places (``g1 == g2``), or None.  A body meshed as the mirror image of the other
+    (y -> -y, same numbering) is one: d flips its y dofs.  d is read off the signs of
+    ``K2 / K1`` (``d_i d_j``) where K1 is not zero up to rounding (MIRROR_SIGNIFICANT): the
+    dofs joined by same-sign couplings form at most two classes (the x and the y dofs), +1 on
+    the class of dof 0."""
+    if K1.shape != K2.shape or not np.array_equal(g1, g2) or not (
+            np.array_equal(K1.indptr, K2.indptr) and np.array_equal(K1.indices, K2.indices)):
+        return None
+    scale = np.max(np.abs(K1.data), initial=0.0)
+    big = np.abs(K1.data) > MIRROR_SIGNIFICANT * scale  # couplings zero up to rounding: no sign
+    same = big & (np.sign(K1.data) * np.sign(K2.data) > 0)
+    graph = sp.csc_matrix((same.astype(np.int8), K1.indices, K1.indptr), shape=K1.shape,
+                          copy=True)
+    graph.eliminate_zeros()  # csgraph takes stored zeros as edges
+    count, labels = connected_components(graph, directed=False)
+    if count > 2:
+        return None
+    d = np.where(labels == labels[0], 1.0, -1.0)
+    cols = np.repeat(np.arange(K1.shape[1]), np.diff(K1.indptr))
+    err = np.abs(K2.data - d[K1.indices] * d[cols] * K1.data)
+    return d if np.all(err <= MIRROR_RTOL * scale) else None
+
+
+def flip_add(C: np.ndarray, d: np.ndarray) -> None:
+    """``C += D C D`` in place (D = diag d, d = +-1), by row blocks: the compliance of a mirror
+    body added to its original's (lower triangle as potri left it)."""
+    m = C.shape[0]
+    for r0 in range(0, m, RHS_BLOCK):
+        r1 = min(r0 + RHS_BLOCK, m)
+        C[r0:r1] *= 1.0 + d[r0:r1, None] * d[None, :]
 
 
 def body_compliance(Kb: sp.csc_matrix, gamma: np.ndarray):
-    """``(chol, perm, C_b)`` of one body: CHOLMOD factor of ``Kb[perm][:, perm]`` with the pair
-    dofs ``gamma`` last, and ``C_b = (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing
-    factor block ``L22`` (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri."""
+    """``(chol, perm, C_b, packed)`` of one body: CHOLMOD factor of ``Kb[perm][:, perm]`` with
+    the pair dofs ``gamma`` last, ``C_b = (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing
+    factor block ``L22`` (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and
+    ``L22`` itself packed (lower, LAPACK ``trttp``) for the recovery's backward solves."""
     from sksparse.cholmod import analyze, cholesky
 
     inner = np.setdiff1d(np.arange(Kb.shape[0]), gamma)
-    perm = np.r_[inner[analyze(Kb[inner][:, inner].tocsc()).P()], gamma]
+    method = INNER_ORDERING if Kb.shape[0] >= NESDIS_MIN_DOFS else "default"
+    order = analyze(Kb[inner][:, inner].tocsc(), ordering_method=method)
+    perm = np.r_[inner[order.P()], gamma]
     chol = cholesky(Kb[perm][:, perm].tocsc(), ordering_method="natural")
     m = gamma.size
     L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
+    packed, info = dtrttp(L22, uplo="L")
+    if info != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK trttp failed (info={info})")
     Cb, info = dpotri(L22, lower=1, overwrite_c=1)
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK potri failed (info={info})")
-    return chol, perm, Cb
+    return chol, perm, Cb, packed
 
 
 def mirror_lower(A: np.ndarray) -> None:

@@ -1,16 +1,17 @@
 """Full-field recovery of every increment from the condensed solution.
 
 One blocked solve with the existing factor gives the clamped-top response of both
-bodies to the pair forces of all increments; body 1 then gets the plate's rigid
+bodies to the pair forces of all increments (with CHOLMOD's per-body factors only the backward
+sweep, ``Factor.pair_solve``); body 1 then gets the plate's rigid
 motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are recovered as
-``K1 u1`` on the top dofs; stresses are projected (L2) onto the nodal basis on demand.
+``K1 u1`` on the top dofs; stresses are projected (L2) onto the nodal basis on demand, the
+increments asked for together in one multi-RHS solve with sparse strain operators.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
-from skfem.helpers import sym_grad
 
 from .bulk import mass_matrix
 from .condense import pair_loads
@@ -37,13 +38,17 @@ class FieldRecovery:
         self.lever = float(np.max(np.hypot(xy[0], xy[1])))
         self._stress = {}
         self._mass = {}
+        self._projector = {}
 
     @classmethod
     def from_states(cls, model, states) -> FieldRecovery:
         """Recover the full fields of a list of converged contact states."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
-        Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
+        if model.factor.pair_solve is not None:
+            Uf = model.factor.pair_solve(lam)
+        else:
+            Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
         N1 = disc.bases[0].N
         U = np.zeros((disc.n_dofs, lam.shape[1]))
         U[model.free] = Uf
@@ -77,29 +82,65 @@ class FieldRecovery:
 
     def body_stress(self, i: int, body: int) -> np.ndarray:
         """Nodal stresses of one body (0: body 1, 1: body 2) at increment i (computed once)."""
-        if (i, body) not in self._stress:
-            self._stress[i, body] = self._body_stress(body, i)
-        return self._stress[i, body]
+        return self.body_stresses([i], body)[0]
 
-    def _body_stress(self, body: int, i: int) -> np.ndarray:
-        """Plane-strain stress of one body projected onto its scalar nodal basis."""
-        basis, scalar = self.disc.bases[body], self.disc.scalar_bases[body]
+    def mass(self, body: int):
+        """Scalar nodal mass matrix of one body (assembled once; the stress projection and the
+        lumped nodal weights of the stress metrics share it)."""
+        if body not in self._mass:
+            self._mass[body] = mass_matrix(self.disc.scalar_bases[body])
+        return self._mass[body]
+
+    def lumped_mass(self, body: int) -> np.ndarray:
+        """Row sums of :meth:`mass` (the area of each scalar node)."""
+        return np.asarray(self.mass(body).sum(axis=1)).ravel()
+
+    def body_stresses(self, indices, body: int) -> list[np.ndarray]:
+        """Nodal stresses of one body at several increments; those not yet computed are
+        projected together (one multi-RHS solve with the body's mass factor)."""
+        todo = [i for i in dict.fromkeys(int(i) for i in indices) if (i, body) not in self._stress]
+        if todo:
+            for i, s in zip(todo, self._project(body, todo), strict=True):
+                self._stress[i, body] = s
+        return [self._stress[int(i), body] for i in indices]
+
+    def _project(self, body: int, cols: list[int]) -> list[np.ndarray]:
+        """Plane-strain stresses (sxx, syy, sxy, szz) of increments ``cols`` of one body, L2
+        projected onto its scalar nodal basis: ``M s = int phi sigma(u) dx`` per component."""
+        if body not in self._projector:  # one factorisation and one operator per body
+            scalar = self.disc.scalar_bases[body]
+            strain = strain_operators(self.disc.bases[body])
+            load = load_operator(scalar)
+            self._projector[body] = (factorize(self.mass(body), self.backend),
+                                     tuple((load @ B).tocsr() for B in strain))
+        mass, (Rxx, Ryy, Rxy) = self._projector[body]
         E, nu = self.disc.E, self.disc.nu
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
-        eps = sym_grad(basis.interpolate(self.U[body][:, i]))
-        tr = eps[0, 0] + eps[1, 1]
-        comps = (
-            lam * tr + 2 * mu * eps[0, 0],
-            lam * tr + 2 * mu * eps[1, 1],
-            2 * mu * eps[0, 1],
-            lam * tr,
-        )
-        if body not in self._mass:  # one factorisation per body for every projection
-            mass = factorize(mass_matrix(scalar), self.backend)
-            self._mass[body] = (mass, load_operator(scalar))
-        mass, load = self._mass[body]
-        rhs = load @ np.stack([np.asarray(c).ravel() for c in comps], axis=1)
-        return mass.solve(rhs).T
+        U = self.U[body][:, cols]
+        exx, eyy, exy = Rxx @ U, Ryy @ U, Rxy @ U  # the loads of the strains
+        tr = exx + eyy
+        rhs = np.concatenate([lam * tr + 2 * mu * exx, lam * tr + 2 * mu * eyy, 2 * mu * exy,
+                              lam * tr], axis=1)
+        S = mass.solve(rhs).reshape(-1, 4, len(cols))
+        return [np.ascontiguousarray(S[:, :, j].T) for j in range(len(cols))]
+
+
+def strain_operators(basis) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
+    """Sparse ``(Bxx, Byy, Bxy)`` with ``B @ u`` the strains ``eps_xx, eps_yy, eps_xy`` of the
+    vector dof vector u at the quadrature points (rows ``(e, k)`` as in :func:`load_operator`;
+    row ``(e, k)`` holds element e's dofs, built in CSR form directly)."""
+    n_el, n_qp = basis.dx.shape
+    n_loc = len(basis.basis)
+    dofs = np.asarray(basis.element_dofs).T  # (n_el, n_loc)
+    indices = np.broadcast_to(dofs[:, None, :], (n_el, n_qp, n_loc)).ravel()
+    indptr = np.arange(0, n_el * n_qp * n_loc + 1, n_loc)
+    grads = np.stack([np.asarray(phi[0].grad) for phi in basis.basis], axis=-1)
+    out = []
+    for g in (grads[0, 0], grads[1, 1], 0.5 * (grads[0, 1] + grads[1, 0])):
+        B = csr_matrix((g.ravel(), indices.copy(), indptr.copy()), shape=(n_el * n_qp, basis.N))
+        B.eliminate_zeros()
+        out.append(B)
+    return tuple(out)
 
 
 def load_operator(scalar) -> csr_matrix:

@@ -116,6 +116,10 @@ class FemHistory:
         """Nodal-projected stress (sxx, syy, sxy, szz) of one body (0: body 1, 1: body 2)."""
         return self.fields.body_stress(step.index, body)
 
+    def body_stresses(self, steps, body: int) -> list[np.ndarray]:
+        """:meth:`body_stress` of several steps, those not yet computed projected together."""
+        return self.fields.body_stresses([s.index for s in steps], body)
+
 
 @dataclass(frozen=True)
 class Model:

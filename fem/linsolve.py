@@ -21,11 +21,16 @@ BACKENDS = ("cholmod", "pypardiso", "scipy-splu")
 
 @dataclass(frozen=True)
 class Factor:
-    """A factorised symmetric positive definite matrix; ``solve(B)`` accepts 1-D or 2-D B."""
+    """A factorised symmetric positive definite matrix; ``solve(B)`` accepts 1-D or 2-D B.
+
+    ``pair_solve(lam)``, when set (``fem.condense``), gives ``solve`` of the pair loads of the
+    pair forces ``lam`` (columns) by a cheaper route than a general solve.
+    """
 
     backend: str
     solve: Callable[[np.ndarray], np.ndarray]
     n: int
+    pair_solve: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 def available_backends() -> tuple[str, ...]:

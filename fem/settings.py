@@ -15,16 +15,46 @@ from .errors import InputError
 
 #: Elements across the contact window at level 0 (the default mesh is level 1).
 N_WINDOW_LEVEL0 = 48
-#: Default half-width and depth as multiples of the window half-width. With the half-plane
-#: boundary the Hertz width does not depend on it beyond the far-field multipole truncation:
-#: level 3 moment width -0.0811 / -0.0872 / -0.0891 / -0.0888 % at 3 / 6 / 12.5 / 100.
+#: Default half-width and depth as multiples of the window half-width. With the half-plane boundary
+#: the Hertz width does not depend on it beyond the far-field multipole truncation: level 3 moment
+#: width -0.0811 / -0.0872 / -0.0891 / -0.0888 % at 3 / 6 / 12.5 / 100.  The ring layout (cattaneo,
+#: level 2, size 4 / 8 / 16 / 32 / 64): edge error 8.75 / 8.71 / 8.70 / 8.72 / 8.73e-5, stick 2.11 /
+#: 2.10 / 2.10 / 2.10 / 2.10e-4 of the width, pressure L2 0.143 % at every size, with 55.7k / 64.3k
+#: / 72.2k / 81.3k / 89.8k DOFs (+13 % per doubling); applied_moment, level 1, size 4 / 8 / 16 / 32:
+#: edge 1.228 / 1.230 / 1.229 / 1.229e-3, pressure L2 0.561 / 0.559 / 0.560 / 0.560 % with 20.9k /
+#: 24.7k / 28.7k / 33.5k DOFs. A bigger ring body buys nothing measurable, a smaller one saves 13 %
+#: of the DOFs for a truncation error that grows like (a / W)^3 (applied_moment pressure 2e-5 at 4;
+#: the tensor's level-3 moment width 0.0016 % at 6, 0.0077 % at 3): 8 for both layouts.
 SIZE_FACTOR = 8.0
-#: Mesh layouts (MeshSpec.layout): graded rings around the windows (fem.rings) or the tensor
-#: product of an x axis and a depth axis.  The default stays 'tensor': at levels -1 / 0 / 1 the
-#: rings' grading error dominates the Hertz edge error (local orders 2.56 / 0.63 against the
-#: tensor mesh's 0.88 / 0.99; tests/verification/test_compare_convergence.py), and a finer
-#: default growth (1.15) costs more DOFs than the tensor mesh at level 1.  Rings pay from
-#: level 3 (cattaneo: 3.1x less history time, 3.3x less memory, benchmarks/bench_fem.py).
+#: Mesh layouts (MeshSpec.layout): graded rings around the windows (fem.rings) or the tensor product
+#: of an x axis and a depth axis. The default stays 'tensor' (issue 28; Hertz, signed edge error of
+#: the width, > 0: the FE zone narrower; benchmarks/grading_study.py). The edge error is the sum of
+#: (a) the contact's own error, widening, O(h^2): -2.61e-3 / -6.53e-4 / -1.81e-4 at levels -1 / 0 /
+#: 1 (phase-locked, grading made negligible: rings at growth 1.02, 32k / 96k / 286k DOFs); (b) the
+#: grading's stiffening, narrowing: +6.1e-4 / +3.3e-4 / +1.7e-4 with the rings' rate 1.2 / 1.14 /
+#: 1.1 (order ~1 by design, GROWTH; at level 0 it falls like (g - 1)^1.5: +3.3e-4 / +1.2e-4 /
+#: +3.9e-5 at rates 1.14 / 1.07 / 1.035 with 11k / 22k / 44k DOFs); (c) an O(h) phase error of
+#: either sign (free minus phase-locked: +7e-4 / +1.0e-4 / +1.6e-4). (b) overtakes (a) between
+#: levels 0 and 1, so the free ring error changes sign there and falls only 1.5x (-2.27e-4 ->
+#: +1.47e-4, local order 0.63 < MIN_EDGE_ORDER of tests/verification/test_compare_convergence.py;
+#: cattaneo's stick error falls regularly on both: rings 7.5e-3 / 3.4e-3 / 7.3e-4 / 2.1e-4 at levels
+#: -1..2, tensor 7.2e-3 / 2.8e-3 / 5.8e-4 / 2.7e-4). None of the grading's knobs moves the crossing
+#: at less than the tensor mesh's level-1 cost (26.5k DOFs): the body size (4..16) changes (b) by <
+#: 1e-5, the fine margin (0.15 -> 0.5) by -5.3e-5, the transition trigger
+#: (fem.rings.TRANSITION_TRIGGER 3 / 9 instead of 4.5) by +1.4e-4 / -1.6e-5 at level 0 (-29 / +23 %
+#: DOFs); transitions at 3x with growth 1.15 / 1.1 give local orders 0.74 / 3.0 at levels 0 -> 1
+#: with 25.9k / 38.8k DOFs at level 1 and 0.64 / 0.35 at 1 -> 2. Keeping (b) below (a) at every
+#: level (rate 1 + 0.1 2^-(level+1) within a window half-span of the fine row, measured with a
+#: two-rate layer_plan not kept) converges at order 2 with one sign (phase-locked -2.44e-3 / -6.1e-4
+#: / -1.7e-4 / -4.1e-5 at levels -1..2) but costs 6.5k / 19.8k / 60k / 200k DOFs against the
+#: tensor's 1.9k / 6.3k / 26.5k / 125k. The tensor mesh crosses as well (phase-locked +1.0e-3 /
+#: +1.2e-4 / -4.3e-5 / -2.6e-5), but its converge schedule halves growth - 1 per level
+#: (refined_growth: 1.8 / 1.4 / 1.2 / 1.1), an order-2 stiffening (+3.6e-3 / +7.7e-4 / +1.4e-4) that
+#: dominates (a) at levels -1 / 0, and its level-1 phase error keeps the free error on one side
+#: (+1.89e-3 / +2.92e-4 / +1.11e-4 / +1.16e-5). At level 1 both layouts are equally efficient
+#: (tensor +1.4e-4 with 26.5k DOFs, rings +1.7e-4 with 25.0k); the rings have fewer DOFs from level
+#: 2 (64k against 125k) and pay at level 3 (cattaneo: 3.1x less history time, 3.3x less memory,
+#: benchmarks/bench_fem.py).
 LAYOUTS = ("rings", "tensor")
 DEFAULT_LAYOUT = "tensor"
 #: Default growth. The rings grow by ``1 + (growth - 1) 2**(-(level + 1) / 2)`` per layer

@@ -43,11 +43,12 @@ GAP_TOL = ACCURACY
 """-min of the gap recomputed from p outside the zones / (A P)."""
 GAP_MATCH_TOL = ACCURACY
 """|returned gap - recomputed gap| / (A P) near the zones, plus GAP_FAR_REL |gap|."""
-GAP_FAR_REL = 1e-6
+GAP_FAR_REL = 1e-9
 """Far from the zones the returned gap is an integral of g' over up to twice the contact
-span; on spline profiles (C2 only) it was 1e-7 to 2e-7 of |gap| off at the table ends (audit
-seeds 9, 17, 31, 46, 51, 64, 74, 79). Errors of the kind the issue reports (1e-3 relative)
-stay far above this."""
+span: allowed this fraction of |gap|.  Measured worst 2.7e-11 of |gap| (|gap| > 1e3 A P, audit
+seeds 0-399, 197 cases; seed 52): a margin of 37.  It was 1e-6 while spline profiles (C2
+only) were 1e-7 to 2e-7 off at the table ends (audit seeds 9, 17, 31, 46, 51, 64, 74, 79);
+their gap integrals now continue the edge interval's cubic, 1.2e-13 (issue 29)."""
 FRICTION_TOL = ACCURACY
 """max(|q| - mu p) / (mu P / extent) at the quadrature nodes (the solver allows 1e-8)."""
 SHEAR_TOL = ACCURACY
@@ -343,11 +344,33 @@ def resolved_zones(zones: Sequence[tuple[float, float]], loads: Sequence[float],
     return out
 
 
+def paired_resolved_zones(solutions: Sequence, dx: float) -> list[np.ndarray] | None:
+    """``(a, b, load)`` rows of solutions with the same zone count and no two zones closer
+    than TINY_PANELS panels, leaving out every zone index narrower than that in *any* of them
+    when its widths agree within a panel (None otherwise).  :func:`resolved_zones` decides
+    per solution, so a zone at the threshold could count in one and not in another: audit seed
+    101240, a Hertz zone 6.98e-3 wide analytically and 7.15e-3 in the BEM against a threshold
+    of 7.07e-3, was a 'bem_topology' disagreement with two zones on both sides."""
+    rows = [np.column_stack([np.asarray(z.zones, float).reshape(-1, 2), z.zone_loads])
+            for z in solutions]
+    if len({r.shape[0] for r in rows}) != 1 or any(
+            np.any(r[1:, 0] - r[:-1, 1] < TINY_PANELS * dx) for r in rows):
+        return None
+    widths = np.array([r[:, 1] - r[:, 0] for r in rows])
+    keep = np.all(widths >= TINY_PANELS * dx, axis=0)
+    if np.any(np.ptp(widths[:, ~keep], axis=0) > dx):
+        return None  # widths a panel apart or more: not a threshold effect, the counts stand
+    return [r[keep] for r in rows]
+
+
 def bem_findings(sol: NormalSolution, pair: BemPair) -> list[Finding]:
     """Zone count, edges, zone loads and theta against the BEM pair (zones compared as the
-    coarse BEM resolves them, see :func:`resolved_zones`)."""
+    coarse BEM resolves them, see :func:`resolved_zones`; paired by index when the counts
+    differ only at the resolution threshold, see :func:`paired_resolved_zones`)."""
     c, f = pair.coarse, pair.fine
     an, zc, zf = (resolved_zones(z.zones, z.zone_loads, c.dx) for z in (sol, c, f))
+    if len(an) != len(zf) or len(zc) != len(zf):
+        an, zc, zf = paired_resolved_zones((sol, c, f), c.dx) or (an, zc, zf)
     if len(zc) != len(zf):
         return [Finding("bem_unresolved", 1.0, 0.0,
                         f"BEM zone counts differ between N={c.grid.n} ({len(zc)}) and "

@@ -179,3 +179,18 @@ def test_converge_command_passes_phase_locked_and_prints_which_ran(monkeypatch, 
         assert main(["converge", "hertz", *flag]) == 0
         assert seen["phase_locked"] == bool(flag)
         assert f"refinement: {words}" in capsys.readouterr().out
+
+
+def test_the_edge_offset_keeps_its_sign_and_a_crossing_is_named():
+    """Issue 28: phase-locked Hertz on rings, edge errors 3.3e-4, 1.3e-5, 3.5e-5, 2.8e-5: a
+    discretisation error widening the zone crosses a grading error narrowing it."""
+    wide_then_narrow = [1.0 + 3.3e-4 * 2, 1.0 + 1.3e-5 * 2, 1.0 - 3.5e-5 * 2, 1.0 - 2.8e-5 * 2]
+    st = study(errors(edge_error_max=[3.3e-4, 1.3e-5, 3.5e-5, 2.8e-5]), wide_then_narrow)
+    assert st.edge_offsets() == pytest.approx([3.3e-4, 1.3e-5, -3.5e-5, -2.8e-5])
+    assert st.offset_crossings() == [(1, 2)]
+    text = convergence_text(st)
+    assert "edge offset (wider +)" in text
+    assert "changes sign from level 1 to 2" in text
+    assert st.summary()["offset_crossings"] == [[1, 2]]
+    same_sign = study(errors(), [1.0 + 0.3 * h for h in H])
+    assert same_sign.offset_crossings() == [] and "changes sign" not in convergence_text(same_sign)

@@ -1,12 +1,19 @@
-"""Per-body Schur condensation (CHOLMOD) equals the compliance from blocked solves."""
+"""Per-body Schur condensation (CHOLMOD) equals the compliance from blocked solves; the
+recovery's backward-only pair solves equal a coupled solve."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fem.condense import body_blocks, compliance, condense, mirror_lower
+import fem
+from fem.bulk import reduced_stiffness
+from fem.condense import body_blocks, compliance, condense, mirror_lower, pair_loads
+from fem.fields import FieldRecovery
+from fem.history import assemble_bodies, build_model, load_schedule, resolve_contact, run_increments
 from fem.linsolve import available_backends, factorize
 
 pytestmark = pytest.mark.skipif("cholmod" not in available_backends(),
@@ -56,3 +63,143 @@ def test_mirror_lower_copies_the_lower_triangle(m):
     mirror_lower(A)
     assert np.array_equal(A, A.T)
     assert np.array_equal(np.tril(A), lower)
+
+
+def coupled_solve(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray, lam: np.ndarray
+                  ) -> np.ndarray:
+    """Reference: the pair loads solved with the whole K by SuperLU (no per-body factor)."""
+    return factorize(K, "scipy-splu").solve(pair_loads(K.shape[0], f1, f2, lam))
+
+
+def test_pair_solve_equals_a_coupled_solve():
+    m = 12
+    K = sp.block_diag([laplacian(m), 2.0 * laplacian(m)], format="csc")
+    f1, f2 = pairs(m, 0), pairs(m, m * m)
+    factor, C = condense(K, f1, f2, "cholmod")
+    lam = np.random.default_rng(1).normal(size=(m, 5))
+    ref = coupled_solve(K, f1, f2, lam)
+    got = factor.pair_solve(lam)
+    assert np.max(np.abs(got - ref)) <= 1e-12 * np.max(np.abs(ref))
+    assert np.allclose(got[f1] - got[f2], C @ lam, rtol=0, atol=1e-12 * np.abs(ref).max())
+    one = factor.pair_solve(lam[:, 0])  # one load case as a 1-D vector
+    assert np.allclose(one[:, 0], got[:, 0], rtol=0, atol=1e-15 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("backend", available_backends())
+def test_every_backend_has_a_pair_solve(backend):
+    m = 8
+    K = sp.block_diag([laplacian(m), laplacian(m)], format="csc")
+    f1, f2 = pairs(m, 0), pairs(m, m * m)
+    factor, _ = condense(K, f1, f2, backend)
+    lam = np.random.default_rng(2).normal(size=(m, 3))
+    ref = coupled_solve(K, f1, f2, lam)
+    assert np.allclose(factor.pair_solve(lam), ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+
+
+def test_recovered_fields_equal_a_coupled_solve_on_a_small_mesh():
+    """FieldRecovery's backward-only solves against SuperLU of the whole bulk, with the
+    half-plane far field and the plate's rigid motion, for every increment."""
+    P0, mu, E, nu = 0.01, 0.5, 1.0, 0.3
+    a = np.sqrt(2 * 3.64 * 0.01 * 100 / np.pi)
+    window = (-1.3 * a, 1.3 * a)
+    timings: dict = {}
+    mesh = fem.MeshSpec(level=-2)
+    tbm, _, disc = assemble_bodies(mesh, window, (), E, nu, timings)
+    settings = resolve_contact(None, E, tbm.h_min)
+    model = build_model(disc, lambda x: x**2 / 200.0, mu, window, settings, True, "cholmod",
+                        timings)
+    schedule = load_schedule(P0, 0.002, None, fem.LoadPath(n_normal=2, n_tangential=2))
+    states = run_increments(model.prob, schedule, settings, None)
+    got = FieldRecovery.from_states(model, states)
+    splu = factorize(reduced_stiffness(disc, model.free), "scipy-splu")
+    ref = FieldRecovery.from_states(replace(model, factor=splu), states)
+    for body in (0, 1):
+        scale = np.max(np.abs(ref.U[body]))
+        assert np.max(np.abs(got.U[body] - ref.U[body])) <= 1e-10 * scale
+    for i in range(len(states)):
+        r_got, r_ref = np.array(got.reactions(i)), np.array(ref.reactions(i))
+        assert np.allclose(r_got, r_ref, rtol=0, atol=1e-10 * P0)
+
+
+def test_nested_dissection_ordering_of_large_bodies_gives_the_same_compliance(monkeypatch):
+    import fem.condense as cd
+
+    m = 12
+    K = sp.block_diag([laplacian(m), 2.0 * laplacian(m)], format="csc")
+    f1, f2 = pairs(m, 0), pairs(m, m * m)
+    monkeypatch.setattr(cd, "NESDIS_MIN_DOFS", 0)  # every body takes INNER_ORDERING
+    factor, C = condense(K, f1, f2, "cholmod")
+    ref = compliance(factorize(K, "scipy-splu"), f1, f2)
+    assert np.allclose(C, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
+    b = np.random.default_rng(1).normal(size=(K.shape[0], 2))
+    assert np.allclose(K @ factor.solve(b), b)
+
+
+def elastic_like(m: int) -> sp.csc_matrix:
+    """SPD stiffness-like matrix with two interleaved dofs (x, y) per node of an m x m grid."""
+    return sp.kron(laplacian(m), np.array([[2.0, 0.5], [0.5, 2.0]])).tocsc()
+
+
+def test_a_mirror_body_reuses_the_first_factor_and_gives_the_same_compliance():
+    import fem.condense as cd
+
+    m = 10
+    K1 = elastic_like(m)
+    d = np.tile([1.0, -1.0], m * m)  # the mirror flips the y dofs
+    K2 = (sp.diags(d) @ K1 @ sp.diags(d)).tocsc()
+    K = sp.block_diag([K1, K2], format="csc")
+    f1, f2 = pairs(2 * m, 0), pairs(2 * m, 2 * m * m)
+    assert np.array_equal(cd.mirror_signs(K1, K2, f1, f2 - 2 * m * m), d)
+    factor, C = condense(K, f1, f2, "cholmod")
+    ref = compliance(factorize(K, "scipy-splu"), f1, f2)
+    assert np.allclose(C, ref, rtol=1e-12, atol=1e-14 * np.abs(ref).max())
+    assert np.array_equal(C, C.T)
+    b = np.random.default_rng(2).normal(size=(K.shape[0], 3))
+    assert np.allclose(K @ factor.solve(b), b)
+    assert np.allclose(K @ factor.solve(b[:, 0]), b[:, 0])
+    lam = np.random.default_rng(4).normal(size=(f1.size, 3))  # the recovery's backward solves
+    ref_u = coupled_solve(K, f1, f2, lam)
+    assert np.max(np.abs(factor.pair_solve(lam) - ref_u)) <= 1e-12 * np.abs(ref_u).max()
+
+
+def test_no_mirror_when_the_bodies_differ():
+    import fem.condense as cd
+
+    K1 = elastic_like(6)
+    g = np.arange(12)
+    assert cd.mirror_signs(K1, (2.0 * K1).tocsc(), g, g) is None  # not D K1 D
+    K2 = K1.copy()
+    K2.data[0] *= 1 + 1e-9  # off by more than rounding
+    assert cd.mirror_signs(K1, K2, g, g) is None
+    assert cd.mirror_signs(K1, K1, g, g + 1) is None  # pair dofs elsewhere
+    assert np.array_equal(cd.mirror_signs(K1, K1, g, g), np.ones(K1.shape[0]))
+
+
+def test_ring_mesh_bodies_share_one_factor_and_match_two_factorisations(monkeypatch):
+    """The generated ring meshes are mirror images: one CHOLMOD factorisation serves both
+    bodies, and C and the solves agree with two separate factorisations to rounding."""
+    import fem
+    import fem.condense as cd
+    from fem.bulk import discretise, free_dofs, reduced_stiffness
+    from fem.mesh import build_mesh
+
+    tbm = build_mesh(fem.MeshSpec(level=0, layout="rings"), (-0.2, 0.2))
+    disc = discretise(tbm, 1, 1.0, 0.3, "half-plane")
+    free, index = free_dofs(disc)
+    cand = np.flatnonzero(np.abs(disc.interface.x) <= 0.3)
+    f1, f2 = cd.pair_dofs(disc, index, cand)
+    K = reduced_stiffness(disc, free)
+    calls = []
+    monkeypatch.setattr(cd, "body_compliance",
+                        lambda *a, f=cd.body_compliance: calls.append(1) or f(*a))
+    one, C1 = condense(K, f1, f2, "cholmod")
+    assert len(calls) == 1
+    monkeypatch.setattr(cd, "mirror_signs", lambda *a: None)
+    two, C2 = condense(K, f1, f2, "cholmod")
+    assert len(calls) == 3
+    assert np.max(np.abs(C1 - C2)) <= 1e-12 * np.max(np.abs(C2))
+    b = np.random.default_rng(3).normal(size=(K.shape[0], 2))
+    assert np.max(np.abs(one.solve(b) - two.solve(b))) <= 1e-10 * np.max(np.abs(two.solve(b)))
+    lam = np.random.default_rng(5).normal(size=(f1.size, 2))
+    ref_u = two.pair_solve(lam)
+    assert np.max(np.abs(one.pair_solve(lam) - ref_u)) <= 1e-10 * np.max(np.abs(ref_u))

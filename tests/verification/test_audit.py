@@ -34,7 +34,8 @@ CASES = [AuditCase(-100 - i, c["family"], tuple(c["spec"]), c["P"], c["A"], c["M
                    c["mu"], c["Q"], c["Q0"], tuple(c["core"]))
          for i, c in enumerate(_LIST["cases"])]
 """The explicit cases of ``audit_regressions.json`` (issue 29: a wedge beside a cylinder at six
-loads and in stage 2, a sharp punch beside a cylinder and a wedge pair in moment mode)."""
+loads and in stage 2, a sharp punch beside a cylinder and a wedge pair in moment mode, a
+301-sample spline of two cylinders vertically and in moment mode)."""
 
 
 def _seed_params(seeds) -> list:

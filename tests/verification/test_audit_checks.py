@@ -159,6 +159,25 @@ def test_zones_below_the_bem_resolution_are_merged_or_left_out() -> None:
     assert rows.tolist() == [[0.0, 1.5, 3.0]]
 
 
+def test_a_zone_at_the_resolution_threshold_counts_alike_everywhere() -> None:
+    """Audit seed 101240: the analytic zone 6.98e-3 wide, the BEM's 7.15e-3, the threshold
+    (3 panels) 7.07e-3: per solution one kept it and one did not (a false 'bem_topology')."""
+    from types import SimpleNamespace as NS
+
+    dx = 7.07e-3 / checks.TINY_PANELS
+    an = NS(zones=[(-1.2036, -1.19662), (1.20299, 1.21491)], zone_loads=[1.0, 2.0])
+    bem_fine = NS(zones=[(-1.20367, -1.19652), (1.20286, 1.21503)], zone_loads=[1.1, 1.9])
+    assert len(checks.resolved_zones(an.zones, an.zone_loads, dx)) == 1
+    assert len(checks.resolved_zones(bem_fine.zones, bem_fine.zone_loads, dx)) == 2
+    rows = checks.paired_resolved_zones((an, bem_fine), dx)
+    assert [r.tolist() for r in rows] == [[[1.20299, 1.21491, 2.0]], [[1.20286, 1.21503, 1.9]]]
+    assert checks.paired_resolved_zones((an, NS(zones=[(0.0, 1.0)], zone_loads=[3.0])), dx) \
+        is None
+    half = NS(zones=[(-1.2036, -1.2001), (1.20299, 1.21491)], zone_loads=[1.0, 2.0])
+    wide = NS(zones=[(-1.2036, -1.1936), (1.20299, 1.21491)], zone_loads=[1.0, 2.0])
+    assert checks.paired_resolved_zones((half, wide), dx) is None  # a real difference
+
+
 def _raise(err: Exception):
     def solve(*args, **kwargs):
         raise err

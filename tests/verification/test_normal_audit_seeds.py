@@ -13,7 +13,7 @@ import pytest
 
 import analytic
 from analytic import profiles
-from analytic.selfcheck import LOAD_TOL, SPLINE_FACTOR
+from analytic.selfcheck import LOAD_TOL
 from analytic.stick import solve_stick
 from compare.bem import solve_normal_bem
 
@@ -136,7 +136,8 @@ WAVY = {
 }
 """Audit seeds on this branch (tabulated, moment mode): (R, waves (k, a, phase), P, M).  The
 self-check raised at its analytic-profile tolerances (int p off P by 2e-9 .. 2e-7: the pressure
-converges only algebraically across spline knots); tabulated profiles get SPLINE_FACTOR."""
+converged only algebraically across spline knots).  The zone rule now cuts at the knots: the
+same tolerances as analytic profiles (measured <= 4e-12)."""
 
 
 def wavy_table(R: float, waves: tuple) -> profiles.Profile:
@@ -151,7 +152,7 @@ def test_tabulated_audit_seeds_solve_in_moment_mode(seed: int) -> None:
     R, waves, P, M = WAVY[seed]
     sol = analytic.solve_normal(wavy_table(R, waves), P, 1.0, M)
     assert sol.n_zones == 1
-    assert sol.residuals["selfcheck_load"] < SPLINE_FACTOR * LOAD_TOL
+    assert sol.residuals["selfcheck_load"] < LOAD_TOL
 
 
 def test_moment_on_a_double_wedge_with_a_zone_born_at_an_apex() -> None:
