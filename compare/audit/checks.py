@@ -79,6 +79,13 @@ THETA_FLOOR = 1.0
 TINY_PANELS = 3
 """Zones narrower than this many coarse panels are below the BEM's resolution: they are
 left out of the zone count and of the comparisons."""
+RETRY_MAX_LEVEL = 3
+"""A failed BEM comparison is repeated at up to 2**3 = 8 times BEM_N coarse panels, as many as
+resolve the narrowest returned zone by TINY_PANELS (a zone left out below the resolution
+still carries its load and, in moment mode, its moment: seed 102694, a double wedge whose
+zones are 0.0028 and 0.0098 wide, put the BEM's wider zone's edge 1.7e-3 short at N = 1024 /
+2048 / 4096 alike and within 3e-5 of the analytic edge at 8192 / 16384; the pair at 8192
+costs ~20 s of CPU, so it is the retry's cap)."""
 
 
 @dataclass(frozen=True)
@@ -319,6 +326,15 @@ def solve_bem_pair(sol: NormalSolution, n: int = BEM_N) -> BemPair:
             if "window boundary" not in str(err):
                 raise
     raise RuntimeError("the BEM contact reaches the window boundary at 4x the zones' hull")
+
+
+def resolving_level(sol: NormalSolution, n: int) -> int:
+    """The refinement level (``n * 2**level`` coarse panels, at most RETRY_MAX_LEVEL) at which
+    the narrowest returned zone spans TINY_PANELS coarse panels of the BEM window."""
+    lo, hi = bem_window(sol, WINDOW_MARGIN)
+    narrowest = max(min(b - a for a, b in sol.zones), 1e-12 * (hi - lo))
+    need = TINY_PANELS * (hi - lo) / (n * narrowest)
+    return int(min(RETRY_MAX_LEVEL, max(0, np.ceil(np.log2(need)))))
 
 
 def _tilted_h0(sol: NormalSolution):

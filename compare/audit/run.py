@@ -49,10 +49,11 @@ SOLVE_TARGETS = {"p95": 0.5, "max": 3.0}
 """Targets for the solve CPU time [s] over an audit (issue 29): a user should meet no case
 slower than this; measured before the issue: p95 0.84-1.2 s, max 21-26 s (seeds 0-499)."""
 BEM_REFINEMENTS = 1
-"""A BEM comparison that fails at N / 2N panels is repeated once at 2N / 4N, and that verdict
-stands: the error estimate |fine - coarse| is too small when the two grids happen to place an
-edge alike (a double wedge's outer edge, seed 100269: N and 2N within 7e-5 of each other and
-1.3 fine panels short of the analytic edge; 4N and 8N 0.07 and 0.03 of their panels off it)."""
+"""A BEM comparison that fails at N / 2N panels is repeated once at 2N / 4N (or finer, as many
+panels as resolve the narrowest zone: checks.resolving_level), and that verdict stands: the
+error estimate |fine - coarse| is too small when the two grids happen to place an edge alike
+(a double wedge's outer edge, seed 100269: N and 2N within 7e-5 of each other and 1.3 fine
+panels short of the analytic edge; 4N and 8N 0.07 and 0.03 of their panels off it)."""
 
 
 @dataclass(frozen=True)
@@ -135,9 +136,11 @@ def _solution_findings(normal, stick, n_bem: int) -> list[checks.Finding]:
 
 
 def _bem_verdict(normal, stick, n_bem: int) -> list[checks.Finding]:
-    """The BEM comparisons at N and 2N panels; when one fails, again at 2N and 4N (see
-    BEM_REFINEMENTS): a disagreement must persist under refinement."""
-    for level in range(BEM_REFINEMENTS + 1):
+    """The BEM comparisons at N and 2N panels; when one fails, again at 2N and 4N or as fine
+    as resolves the narrowest zone (BEM_REFINEMENTS, checks.resolving_level): a disagreement
+    must persist under refinement."""
+    retry = max(1, checks.resolving_level(normal, n_bem))
+    for level in [0, retry][:BEM_REFINEMENTS + 1]:
         pair = checks.solve_bem_pair(normal, n_bem * 2**level)
         found = checks.bem_findings(normal, pair)
         if stick is not None:

@@ -246,3 +246,20 @@ def test_the_summary_spreads_the_solve_time_by_family_and_mode() -> None:
     assert punch["over_p95_target"] == 1
     assert head["solve_cpu_by_family_mode"]["wedge/vertical"]["over_p95_target"] == 0
     assert "| punch/moment | 3 | 0.200 / " in run.markdown(results, head)
+
+
+def test_the_bem_retry_resolves_the_narrowest_zone():
+    """A failed BEM comparison is repeated as fine as resolves the narrowest returned zone
+    (seed 102694: zones 0.0028 and 0.0098 wide in a window 4.3 wide need 8 x BEM_N), capped at
+    RETRY_MAX_LEVEL; wide zones keep the plain 2N retry."""
+    narrow = analytic.solve_normal(cases.make_case(102694).profile, 0.0012670891551785845, 1.0,
+                                   0.0007510105604606732)
+    assert min(b - a for a, b in narrow.zones) < 3e-3
+    assert checks.resolving_level(narrow, checks.BEM_N) == checks.RETRY_MAX_LEVEL == 3
+    hertz = analytic.solve_normal(profiles.cylinder(1.0), 1e-3, 1.0)
+    assert checks.resolving_level(hertz, checks.BEM_N) == 0
+    lo, hi = checks.bem_window(narrow, checks.WINDOW_MARGIN)
+    width = min(b - a for a, b in narrow.zones)
+    level = checks.resolving_level(narrow, 256)
+    assert level == checks.RETRY_MAX_LEVEL  # capped: 256 * 8 panels do not resolve it
+    assert 256 * 2**level * width / (hi - lo) < checks.TINY_PANELS
