@@ -292,8 +292,10 @@ def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]
         xm = refine_minimum(pc, theta, xs[i - 1], xs[i + 1])
         out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
     for end, x_end, inner in ((0, pc.lo, f[1]), (-1, pc.hi, f[-2])):
-        if np.isfinite(x_end) and f[end] <= inner and _end_is_low(prof, k, end, theta):
-            xm = _inside_end_min(pc, theta, x_end, xs[1] if end == 0 else xs[-2])
+        if not (np.isfinite(x_end) and f[end] <= inner):
+            continue
+        xm = _inside_end_min(pc, theta, x_end, xs[1] if end == 0 else xs[-2])
+        if xm != x_end or _end_is_low(prof, k, end, theta):
             out.append((xm, xm, float(pc.h(np.array([xm]))[0] - theta * xm)))
     return out
 
@@ -301,7 +303,10 @@ def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]
 def _inside_end_min(pc: Piece, theta: float, x_end: float, x_next: float) -> float:
     """A piece end that samples lower than its neighbour sample, or the minimum between them
     when ``h0 - theta x`` still falls going inwards from the end (a tilted face meeting a
-    rounded corner: the minimum lies on the corner, closer than one sample to the kink)."""
+    rounded corner: the minimum lies on the corner, closer than one sample to the kink). That
+    inner minimum is the piece's own, kept even where the end is a ridge (a union's cylinder
+    whose lowest point lay 0.08 from the ridge, within one sample of its 50-scale infinite
+    piece, was missed and the first touch started on the next cylinder: audit seed 102518)."""
     inward = np.sign(x_next - x_end)
     if inward * (float(pc.dh(np.array([x_end]))[0]) - theta) >= 0:
         return x_end

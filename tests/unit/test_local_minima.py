@@ -4,6 +4,7 @@ unions of cylinders, wedges and flat punches, tilted or not."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -58,3 +59,17 @@ def test_a_concave_kink_on_a_rising_flank_is_no_minimum() -> None:
     assert 1.5471812683061577 in u.ridges
     xs = [m[0] for m in u.local_minima()]
     assert xs == [0.0, 1.0239449588943053]
+
+
+def test_a_minimum_within_one_sample_of_a_ridge_is_found() -> None:
+    """Audit seed 102518: the lowest point of the cylinder R = 2.57 lies 0.08 from the ridge that
+    ends its infinite piece, inside the last of the piece's samples; it was dropped with the
+    ridge and the first touch started on the other cylinder, 7.7e-4 higher."""
+    u = pr.union(pr.flat_punch(-0.7886841388552277, 0.7886841388552277,
+                               corner_radius=0.31711253074994755, lift=0.006386096984933542),
+                 pr.cylinder(1.3127253765649063, -1.8846096389439158, 0.006302915148183161),
+                 pr.cylinder(2.571046323936924, -1.9956653697209379, 0.005528199815070189))
+    lowest = min(u.local_minima(), key=lambda m: m[2])
+    assert lowest[0] == lowest[1] == pytest.approx(-1.9956653697209379, abs=1e-12)
+    x = np.linspace(-3.0, 1.0, 40001)
+    assert lowest[2] <= float(np.min(u.h0(x))) + 1e-15

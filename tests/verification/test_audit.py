@@ -57,6 +57,15 @@ def test_audit_fast_sample(seed: int) -> None:
     _assert_agrees(run.audit_seed(seed))
 
 
+FAST_REGRESSIONS = (102518,)
+"""Closed regression seeds cheap enough for the default suite (~0.7 s each with the checks)."""
+
+
+@pytest.mark.parametrize("seed", _seed_params(FAST_REGRESSIONS))
+def test_audit_fast_regression_seeds(seed: int) -> None:
+    _assert_agrees(run.audit_seed(seed))
+
+
 B0, RHO = 0.44558171357291565, 0.12406813981921715
 ISSUE_CASES = [
     AuditCase(-1, "punch", ("flat_punch", {"left": -0.2013895002861746,
