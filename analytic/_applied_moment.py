@@ -20,8 +20,8 @@ from analytic._continuation import (
     solve_from_first_touch,
     solve_from_guess,
 )
-from analytic._newton import State
-from analytic._sie import System
+from analytic._newton import State, beta_for, fresh_state
+from analytic._sie import Layout, System
 from analytic.errors import ConvergenceError, InputError
 from analytic.profiles import Profile
 
@@ -171,6 +171,9 @@ def _bracket(rot: _Rotations, M: float, theta0: float, step: float):
 
 def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[State, System]:
     xe = check_tipping(profile, P, M)
+    alone = _face_alone(profile, P, A, M, xe)
+    if alone is not None:
+        return alone
     theta0 = _initial_rotation(profile, xe)
     scale = abs(theta0) + A * P / profile.scale + 1e-12
     rot = _Rotations(profile, P, A)
@@ -271,3 +274,50 @@ def _initial_rotation(profile: Profile, xe: float) -> float:
     if lowest is None or abs(0.5 * (lowest[0] + lowest[1]) - xe) > 1e-6 * profile.scale:
         return 0.0
     return slope
+
+
+def _face_alone(profile: Profile, P: float, A: float, M: float, xe: float
+                ) -> tuple[State, System] | None:
+    """The solution with the whole load on the sharp flat face under the load centre ``xe``
+    (both edges at its corners), by the joint Newton from :func:`_face_rotation` with no change
+    of topology; None where there is no such face or that state is not admissible (another
+    zone, a lifted corner), and the search then runs as without it. Without it the search
+    started at theta = 0 and solved the untilted union first: at P = 0.40 a cylinder beside
+    the punch spread over two ridges (4.4 s of topology events) for a solution on the punch
+    alone at theta = 0.208 (audit seed 102077: 7.6 s, now 0.2 s). Starting the search itself
+    at the face rotation was slower where another zone shares the load (0.06 -> 0.7 s)."""
+    theta = _face_rotation(profile, P, A, xe)
+    if theta is None:
+        return None
+    pc = profile.pieces[int(profile.piece_index(np.array([xe]))[0])]
+    st = fresh_state(Layout(np.array([pc.lo, pc.hi]), np.array([True, True])), theta, P)
+    st.beta = beta_for(st, A, P)
+    try:
+        st, sys_ = converge(st, profile, A, M, 1)
+    except StepFailed:
+        return None
+    return (st, sys_) if profile.admits_tilt(st.theta) else None
+
+
+def _face_rotation(profile: Profile, P: float, A: float, xe: float) -> float | None:
+    """The rotation of a sharp flat face (both ends pin points) that carries the whole load
+    about the load centre ``xe`` on it: p = P / (pi sqrt(a^2 - s^2)) + 2 theta s / (A pi
+    sqrt(a^2 - s^2)) gives M - P c = pi a^2 theta / (2 A) (face centre c, half-width a). None
+    where ``xe`` is not on such a face, the tilt is beyond the tilt limits, or the tilted
+    profile is lowest elsewhere (another member touches first)."""
+    k = int(profile.piece_index(np.array([xe]))[0])
+    if k < 0:
+        return None
+    pc = profile.pieces[k]
+    pins = profile.pin_points
+    if not (pc.flat and pc.lo in pins and pc.hi in pins and pc.lo < xe < pc.hi):
+        return None
+    c, a = 0.5 * (pc.lo + pc.hi), 0.5 * (pc.hi - pc.lo)
+    theta = 2.0 * A * P * (xe - c) / (np.pi * a * a)
+    if not profile.admits_tilt(theta):
+        return None
+    mins = profile.local_minima(theta)
+    lowest = min(mins, key=lambda m: m[2]) if mins else None
+    if lowest is None or not pc.lo <= 0.5 * (lowest[0] + lowest[1]) <= pc.hi:
+        return None
+    return theta

@@ -18,7 +18,7 @@ import pytest
 
 import analytic
 from analytic import profiles
-from analytic._applied_moment import _initial_rotation
+from analytic._applied_moment import _face_rotation, _initial_rotation
 from compare.bem import solve_normal_bem
 
 BEM_N = 4096
@@ -172,3 +172,26 @@ def test_moment_of_a_wedge_pair_is_precise() -> None:
     x, w = (np.concatenate(v) for v in zip(*parts, strict=True))
     wp = w * sol.pressure(x)
     assert abs(np.sum(wp) - P) < 1e-9 * P and abs(np.sum(wp * x) - M) < 1e-9 * M
+
+
+def test_moment_on_a_sharp_face_starts_at_the_face_rotation() -> None:
+    """A sharp flat punch carrying P and M alone: M - P c = pi a^2 theta / (2 A) (both edges
+    at the corners), where the face-alone attempt starts and the solver ends. Beside two
+    cylinders (audit seed 102077) that attempt solves on the punch alone: the search from 0
+    solved the untilted union first, a cylinder spread over two ridges at P = 0.40 (7.6 s)."""
+    punch = profiles.flat_punch(-0.3, 0.5)
+    P, A, M = 0.7, 1.3, 0.13
+    theta = _face_rotation(punch, P, A, M / P)
+    assert theta == pytest.approx(2.0 * A * (M - P * 0.1) / (np.pi * 0.4**2), rel=1e-15)
+    sol = analytic.solve_normal(punch, P, A, M)
+    assert sol.theta == pytest.approx(theta, rel=1e-10)
+    union = profiles.union(
+        profiles.flat_punch(-0.41295844720711383, 0.41295844720711383,
+                            lift=0.0037330704751320177),
+        profiles.cylinder(0.7987800554714757, -1.4296855196283649, 0.013269360751054417),
+        profiles.cylinder(0.40725323147749587, -1.4454456632673511, 0.001663558302424828))
+    P, M = 0.40244918124916873, 0.05568644016306471
+    sol = analytic.solve_normal(union, P, 1.0, M)
+    assert sol.zones == [(-0.41295844720711383, 0.41295844720711383)]
+    assert sol.theta == pytest.approx(_face_rotation(union, P, 1.0, M / P), rel=1e-10)
+    assert _face_rotation(union, P, 1.0, -1.0) is None  # load centre off the face
