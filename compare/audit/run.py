@@ -140,9 +140,11 @@ def _bem_verdict(normal, stick, n_bem: int) -> list[checks.Finding]:
     as resolves the narrowest zone (BEM_REFINEMENTS, checks.resolving_level): a disagreement
     must persist under refinement."""
     retry = max(1, checks.resolving_level(normal, n_bem))
+    earlier = None
     for level in [0, retry][:BEM_REFINEMENTS + 1]:
         pair = checks.solve_bem_pair(normal, n_bem * 2**level)
-        found = checks.bem_findings(normal, pair)
+        found = checks.bem_findings(normal, pair, earlier)
+        earlier = pair
         if stick is not None:
             found += checks.bem_stick_findings(stick, pair)
         if not any(f.failed for f in found):
