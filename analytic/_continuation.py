@@ -182,7 +182,7 @@ def converge(st: State, profile: Profile, A: float, M: float | None,
         except NewtonFailed as exc:
             pinned = pin_nearest(st, profile, A, PIN_DISTANCE * st.layout.edge_widths())
             if pinned is None:
-                st = shrunk_new_zone(st, history, A)
+                st = shrunk_new_zone(st, history, A, profile)
                 if st is None:
                     raise StepFailed(str(exc)) from exc
                 history.append(Event("reseed", history[-1].where))
