@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analytic import _admissibility, _continuation, _newton
+from analytic import _admissibility, _continuation, _newton, _topology
 from analytic._sie import Layout, System
 from analytic.normal import _finish
 from compare.audit import cases, checks
@@ -62,6 +62,24 @@ def test_edge_pinned_with_negative_intensity_is_released(case) -> None:
     assert np.all(k < 0) and np.ptp(k) < 0.01 * abs(k[0])
     ev = _admissibility.find_event(st, sys_, case.profile, 1.0)
     assert ev is not None and ev.kind == "release" and ev.where == RIDGE
+
+
+def test_released_notch_edge_converges_beside_the_ridge(case) -> None:
+    """Released, the edge starts as far from the ridge as the facing edge across it (not 2 % of
+    its zone away), and Newton converges from there to an admissible state, every edge free,
+    the ridge in a gap below 1e-4."""
+    pinned = [e == RIDGE for e in PINNED_EDGES]
+    st, _, sys_ = _solved(case.profile, PINNED_EDGES, pinned, P_CASE)
+    ev = _admissibility.find_event(st, sys_, case.profile, 1.0)
+    new = _topology.apply_event(st, ev, sys_, case.profile)
+    e = new.layout.edges
+    assert not new.layout.pinned.any()
+    assert RIDGE - e[5] == pytest.approx(e[6] - RIDGE, rel=1e-6)
+    st, F, sys_ = _solved(case.profile, e, [False] * 8, P_CASE)
+    assert np.max(np.abs(F)) < 1e-9
+    e = st.layout.edges
+    assert e[5] < RIDGE < e[6] and e[6] - e[5] < 1e-4
+    assert _admissibility.find_event(st, sys_, case.profile, 1.0) is None
 
 
 def test_notch_edges_are_solved_in_log_distance(case) -> None:
