@@ -141,9 +141,10 @@ def _predict(st: State, prev: tuple[State, ...], P_next: float, profile: Profile
     edges[free] = guess[free]
     trial = Layout(edges, st.layout.pinned)
     beta = st.beta * (P_next / st.P) if st.beta.size else st.beta
-    new = State(trial, beta, st.theta, P_next, st.xc, st.ell, st.jac)
+    new = State(trial, beta, st.theta, P_next, st.xc, st.ell, st.jac, jac_notches=st.jac_notches)
     if np.any(np.diff(edges) <= 0) or not feasible(new, profile):
-        new = State(st.layout, beta, st.theta, P_next, st.xc, st.ell, st.jac)
+        new = State(st.layout, beta, st.theta, P_next, st.xc, st.ell, st.jac,
+                    jac_notches=st.jac_notches)
     return new
 
 
@@ -224,7 +225,7 @@ def _recentre(st: State) -> State:
     xc = float(0.5 * (e[0] + e[-1]))
     ell = max(float(e[-1] - e[0]), 1e-300)
     beta = _shift_poly(st.beta, xc - st.xc)
-    return State(st.layout, beta, st.theta, st.P, xc, ell, st.jac)
+    return State(st.layout, beta, st.theta, st.P, xc, ell, st.jac, jac_notches=st.jac_notches)
 
 
 def _shift_poly(beta: np.ndarray, d: float) -> np.ndarray:

@@ -17,7 +17,7 @@ from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -48,6 +48,9 @@ class Mode:
     P: float | None           # None: P is an output (driver mode)
     M: float | None           # None: theta fixed
     driver: int | None = None
+    notches: tuple[tuple[int, float, float], ...] = ()
+    """(position among the packed edges, ridge q, side) of every edge solved for as
+    ``ln(|x - q| / ell)`` (:func:`notch_edges`); side -1: the edge lies left of q."""
 
 
 @dataclass
@@ -67,6 +70,7 @@ class State:
     checks: dict | None = None
     F: np.ndarray | None = None  # scaled residuals of the last Newton solve of this state
     system: System | None = None  # the System its residual was evaluated with (reused)
+    jac_notches: tuple = ()  # Mode.notches of the unknowns ``jac`` was taken in
 
 
 def fresh_state(layout: Layout, theta: float, P: float) -> State:
@@ -95,9 +99,41 @@ def _n_beta_free(layout: Layout, mode: Mode) -> int:
     return nb if mode.P is None else max(nb - 1, 0)
 
 
+NOTCH_GAP = 0.1
+"""A gap between two zones narrower than this times the narrower zone, around one ridge of h0,
+has its two edges solved for as ``ln(distance to the ridge)``.  Such a gap closes only
+exponentially in the load (the merged zone's pressure would be -log-singular at the ridge, so
+the gap is where that log term would cross zero): the equations depend on its edges like
+ln(d), and Newton in x overshot across the ridge, crawled at 1/512 steps and failed ("too many
+iterations", "stalled") from predictions within 30 % of d (audit seed 103644 vertical: the gap
+2.7e-5 at the ridge 2.2304 of a punch beside two cylinders, zones 0.22 and 0.43 wide; it
+solves with 0.01 and with 0.1, whose wider reach saves a few of its failed steps).  Audit seeds
+103000-103599 (normal solves): results bit-identical but one, 9e-14 off (103558)."""
+
+
+def notch_edges(st: State, mode: Mode, profile: Profile) -> tuple[tuple[int, float, float], ...]:
+    """:attr:`Mode.notches` of ``st``: both free edges of every gap narrower than NOTCH_GAP times
+    its narrower neighbour that holds exactly one ridge."""
+    e = st.layout.edges
+    free = _free_edges(st.layout, mode).tolist()
+    ridges = profile.ridges
+    out = []
+    for m in range(st.layout.n - 1):
+        b, a = 2 * m + 1, 2 * m + 2
+        gap = e[a] - e[b]
+        width = min(e[b] - e[b - 1], e[a + 1] - e[a])
+        inside = [q for q in ridges if e[b] < q < e[a]]
+        if b in free and a in free and len(inside) == 1 and gap < NOTCH_GAP * width:
+            out += [(free.index(b), inside[0], -1.0), (free.index(a), inside[0], 1.0)]
+    return tuple(out)
+
+
 def _pack(st: State, mode: Mode) -> np.ndarray:
     free = _free_edges(st.layout, mode)
-    z = [(st.layout.edges[free] - st.xc) / st.ell, st.beta[: _n_beta_free(st.layout, mode)]]
+    x = (st.layout.edges[free] - st.xc) / st.ell
+    for j, q, side in mode.notches:
+        x[j] = math.log(side * (st.layout.edges[free[j]] - q) / st.ell)
+    z = [x, st.beta[: _n_beta_free(st.layout, mode)]]
     if mode.M is not None:
         z.append(np.array([st.theta]))
     return np.concatenate(z)
@@ -107,6 +143,9 @@ def _unpack(z: np.ndarray, st: State, mode: Mode, A: float) -> State:
     free = _free_edges(st.layout, mode)
     edges = st.layout.edges.copy()
     edges[free] = st.xc + st.ell * z[: free.size]
+    for j, q, side in mode.notches:
+        d = max(st.ell * math.exp(min(float(z[j]), 700.0)), 4.0 * math.ulp(q))
+        edges[free[j]] = q + side * d
     nbf = _n_beta_free(st.layout, mode)
     beta = st.beta.copy()
     beta[:nbf] = z[free.size: free.size + nbf]
@@ -114,7 +153,8 @@ def _unpack(z: np.ndarray, st: State, mode: Mode, A: float) -> State:
     if mode.P is not None and nb > 0:
         beta[nb - 1] = -A * mode.P
     theta = float(z[-1]) if mode.M is not None else st.theta
-    return State(st.layout.with_edges(edges), beta, theta, st.P, st.xc, st.ell, st.jac)
+    return State(st.layout.with_edges(edges), beta, theta, st.P, st.xc, st.ell, st.jac,
+                 jac_notches=st.jac_notches)
 
 
 def residual(st: State, mode: Mode, profile: Profile, A: float) -> tuple[np.ndarray, System]:
@@ -196,6 +236,7 @@ class NewtonFailed(Exception):
 def newton(st: State, mode: Mode, profile: Profile, A: float) -> tuple[State, np.ndarray]:
     """Damped Newton; a Jacobian carried over from the previous continuation step is reused
     (chord iterations) until the contraction slows, then refreshed by finite differences."""
+    mode = replace(mode, notches=notch_edges(st, mode, profile))
     z = _pack(st, mode)
     F, st.system = residual(st, mode, profile, A)
     if z.size != F.size:
@@ -205,7 +246,8 @@ def newton(st: State, mode: Mode, profile: Profile, A: float) -> tuple[State, np
     norm = float(np.max(np.abs(F)))
     if not np.isfinite(norm):
         raise NewtonFailed("non-finite residual at the start", {"residual": norm})
-    J = st.jac if st.jac is not None and st.jac.shape == (F.size, z.size) else None
+    J = st.jac if st.jac is not None and st.jac.shape == (F.size, z.size) \
+        and st.jac_notches == mode.notches else None
     fresh, polish, floor = False, 0, FLOOR_TOL
     crawl: list[float] = []  # the residual before each accepted step above the floor
     for it in range(NEWTON_MAXIT):
@@ -250,7 +292,7 @@ def newton(st: State, mode: Mode, profile: Profile, A: float) -> tuple[State, np
         if not np.all(np.abs(F) < floor):
             raise NewtonFailed("too many iterations", {"residual": norm,
                                                        "iteration": NEWTON_MAXIT})
-    st.jac = J
+    st.jac, st.jac_notches = J, mode.notches
     return st, F
 
 
@@ -278,6 +320,8 @@ def _rounding_floor(J: np.ndarray, st: State, mode: Mode) -> np.ndarray:
     free = _free_edges(st.layout, mode)
     ulp = np.zeros(J.shape[1])
     ulp[: free.size] = np.spacing(np.abs(st.layout.edges[free])) / st.ell
+    for j, q, side in mode.notches:  # ln(d): an ulp of x is a relative 1 ulp / d of d
+        ulp[j] = np.spacing(abs(st.layout.edges[free[j]])) / (side * (st.layout.edges[free[j]] - q))
     floor = np.maximum(FLOOR_TOL, ULP_FLOOR * (np.abs(J) @ ulp))
     # not the interconnections: scaled by A P + |h'| span, not by the gaps' own size A P, they
     # would accept a wrong load split between narrow zones far apart (double wedge, P = 1e-8)
@@ -311,6 +355,8 @@ def _fd_steps(z: np.ndarray, st: State, mode: Mode, profile: Profile) -> np.ndar
     # but by at least FD_ULPS units in the last place of x (the edges are stored as x): a zone
     # 4e-9 wide at x = 1 (a wedge apex at a small load) would step by 2 ulps
     h[: free.size] = np.maximum(FD_STEP * smooth, FD_ULPS * np.spacing(np.abs(edges))) / st.ell
+    for j, q, side in mode.notches:  # ln(d): a relative step of d (x moves away from q)
+        h[j] = max(FD_STEP, FD_ULPS * np.spacing(abs(edges[j])) / (side * (edges[j] - q)))
     return h
 
 
@@ -326,7 +372,10 @@ def _away_from_features(steps: np.ndarray, st: State, mode: Mode, profile: Profi
     out = steps.copy()
     edges = st.layout.edges[free]
     near = profile.feature_distance(edges)
+    logs = {j for j, _, _ in mode.notches}  # ln(d): never reaches its ridge, steps 1e-7 of d
     for j, x in enumerate(edges.tolist()):
+        if j in logs:
+            continue
         if _crosses_feature(profile, x, x + out[j] * st.ell):
             out[j] = -out[j]
         if np.isfinite(near[j]) and abs(out[j]) * st.ell > near[j]:

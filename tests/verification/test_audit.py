@@ -35,7 +35,8 @@ CASES = [AuditCase(-100 - i, c["family"], tuple(c["spec"]), c["P"], c["A"], c["M
          for i, c in enumerate(_LIST["cases"])]
 """The explicit cases of ``audit_regressions.json`` (issue 29: a wedge beside a cylinder at six
 loads and in stage 2, a sharp punch beside a cylinder and a wedge pair in moment mode, a
-301-sample spline of two cylinders vertically and in moment mode)."""
+301-sample spline of two cylinders vertically and in moment mode, audit seed 103644's profile
+vertically; ``open`` as for seeds)."""
 
 
 def _seed_params(seeds) -> list:
@@ -95,8 +96,15 @@ def test_audit_passes_the_issue_wrong_answers(case: AuditCase) -> None:
     _assert_agrees(run.audit_case(case))
 
 
-@pytest.mark.parametrize("case", [pytest.param(c, id=e["name"],
-                                               marks=[pytest.mark.slow] if e["slow"] else [])
+def _case_marks(entry: dict) -> list:
+    """slow, and ``xfail(strict=True)`` for a case listed ``open`` (a known solver bug)."""
+    marks = [pytest.mark.slow] if entry["slow"] else []
+    if entry.get("open"):
+        marks.append(pytest.mark.xfail(strict=True, reason=f"{entry['reason']} ({entry['ref']})"))
+    return marks
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, id=e["name"], marks=_case_marks(e))
                                   for c, e in zip(CASES, _LIST["cases"], strict=True)])
 def test_audit_passes_the_listed_cases(case: AuditCase) -> None:
     _assert_agrees(run.audit_case(case))
