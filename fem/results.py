@@ -96,12 +96,16 @@ SKIP_SHIFT = 0.5
 #: level 3, Q = Q0 / 2), and a quadratic through nodes 3-7 extrapolates that tail to the edge:
 #: 0.017 / 0.029 / 0.036 element at levels 3 / 4 / 5, an O(h) error that stalled the stick-edge
 #: error (4.9e-5 / 4.1e-5 / 2.6e-5 of the width; the estimator is exact on the analytic fields
-#: at the same nodes, < 1e-15).  The wide band reads through it: 1.0e-5 / 4.3e-6 at levels 3 / 4
-#: (0.0035 / 0.003 element).  A band of more than ~1/12 of the run lets the quadratic miss the
-#: field's higher terms on short runs (default levels: 20 nodes put two_cylinders_far's stick
-#: edge 3.5e-3 off instead of 4.3e-4), so runs shorter than 84 nodes keep EDGE_FIT.
+#: at the same nodes, < 1e-15).  The wide band reads through most of it: 3.1e-5 / 1.1e-5 / 5.0e-6
+#: at levels 3 / 4 / 5 (0.011 / 0.008 / 0.007 element; 1/12 of the run: 1.0e-5 / 4.3e-6 / 3.9e-6).
+#: While the band grows with the run (up to 1008 nodes) its quadratic misses the field's higher
+#: terms by a fixed fraction of the width, so the band stays narrow: 1/12 of the run put
+#: biquadratic_merged's stage-2 stick edges (level 2) up to 1.9e-3 of the width off instead of
+#: 8.0e-4 (a fixed 20 nodes: two_cylinders_far's 3.5e-3 instead of 4.3e-4, level 1); 1/24 moves
+#: no library case at its default level but applied_moment (level 3).  Runs of fewer than 168
+#: nodes keep EDGE_FIT.
 EDGE_FIT = 5
-EDGE_FIT_MAX, BAND_OF_RUN = 40, 12
+EDGE_FIT_MAX, BAND_OF_RUN = 40, 24
 #: Open nodes skipped / fitted on the gap side (g**(2/3) is smooth through a sqrt edge): the
 #: first open node is skipped, its gap is off by up to 0.19 element when it is < h/4 outside.
 #: A straight line through GAP_FIT nodes; on a contact run of GAP_OF_RUN * GAP_WIDE (320) nodes or

@@ -105,7 +105,7 @@ def test_gap_edge_needs_open_nodes_of_finite_gap():
 @pytest.mark.parametrize("b", [0.5013, 0.5219, 0.5488])
 def test_wide_band_exact_for_sqrt_profile_on_a_long_run(grid, b):
     """A run of > 84 nodes takes a wider band (BAND_OF_RUN, up to EDGE_FIT_MAX): still exact."""
-    x = grid(2001, 1.001) if grid is graded else grid(2001)
+    x = grid(4001, 1.0005) if grid is graded else grid(4001)
     a = -0.6
     p = 3.0 * np.sqrt(np.clip((b - x) * (x - a), 0.0, None))
     i0, i1 = run_of(p)
