@@ -88,11 +88,35 @@ EDGE_SKIP = 2
 #: next to its edge, double wedge) puts them ~2 elements off.
 SKIP_SHIFT = 0.5
 #: Nodes in the pressure-side least-squares fit of f**2 after EDGE_SKIP: f**2 of a sqrt edge is
-#: smooth, and with >= 4 nodes a quadratic also takes its curvature (exact for Hertz).
+#: smooth, and with >= 4 nodes a quadratic also takes its curvature (exact for Hertz).  The fit
+#: takes the outer 1/BAND_OF_RUN of the run (less EDGE_SKIP), at least EDGE_FIT and at most
+#: EDGE_FIT_MAX nodes.  Why wider than EDGE_FIT on long runs (issue 28, cattaneo, rings): the FE
+#: smears an edge over its outer ~4 nodes, a tail that decays by ~2 per node (f**2 of nodes 3 /
+#: 4 / 5 implies edges +0.002 / -0.002 / -0.005 element off against a smooth -0.006 beyond:
+#: level 3, Q = Q0 / 2), and a quadratic through nodes 3-7 extrapolates that tail to the edge:
+#: 0.017 / 0.029 / 0.036 element at levels 3 / 4 / 5, an O(h) error that stalled the stick-edge
+#: error (4.9e-5 / 4.1e-5 / 2.6e-5 of the width; the estimator is exact on the analytic fields
+#: at the same nodes, < 1e-15).  The wide band reads through most of it: 3.1e-5 / 1.1e-5 / 5.0e-6
+#: at levels 3 / 4 / 5 (0.011 / 0.008 / 0.007 element; 1/12 of the run: 1.0e-5 / 4.3e-6 / 3.9e-6).
+#: While the band grows with the run (up to 1008 nodes) its quadratic misses the field's higher
+#: terms by a fixed fraction of the width, so the band stays narrow: 1/12 of the run put
+#: biquadratic_merged's stage-2 stick edges (level 2) up to 1.9e-3 of the width off instead of
+#: 8.0e-4 (a fixed 20 nodes: two_cylinders_far's 3.5e-3 instead of 4.3e-4, level 1); 1/24 moves
+#: no library case at its default level but applied_moment (level 3).  Runs of fewer than 168
+#: nodes keep EDGE_FIT.
 EDGE_FIT = 5
+EDGE_FIT_MAX, BAND_OF_RUN = 40, 24
 #: Open nodes skipped / fitted on the gap side (g**(2/3) is smooth through a sqrt edge): the
 #: first open node is skipped, its gap is off by up to 0.19 element when it is < h/4 outside.
+#: A straight line through GAP_FIT nodes; on a contact run of GAP_OF_RUN * GAP_WIDE (320) nodes or
+#: more, a quadratic through 1/GAP_OF_RUN of the run's node count (at most GAP_FIT_MAX) after
+#: the GAP_SKIP_WIDE first open nodes, past their smeared tail: cattaneo (rings) contact edge
+#: 3.6e-5 / 2.2e-5 of the width at levels 3 / 4 with the three nodes (0.013 / 0.016 element:
+#: the same O(h) tail as the pressure side's), 3.9e-6 / 2.8e-6 so; applied_moment (level 3)
+#: 1.28e-4 -> 4.4e-5.  Shorter runs keep the line: on them a longer line misses the curvature of
+#: g**(2/3) (biquadratic_merged, level 2: 2.6e-4 -> 5.2e-4 with 5 nodes).
 GAP_SKIP, GAP_FIT = 1, 3
+GAP_OF_RUN, GAP_WIDE, GAP_SKIP_WIDE, GAP_FIT_MAX = 32, 10, 3, 20
 #: A fit stops before a node where the first difference of the fitted values changes by more than
 #: this fraction: a kink (a profile kink, or a former stick edge inside a stage-3 stick zone).
 KINK_JUMP = 0.4
@@ -156,8 +180,9 @@ def sqrt_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> 
 
     Near a nonsingular edge f ~ sqrt(distance), so f**2 is smooth through the edge: a polynomial
     (:func:`power_root`) is fitted by least squares to f**2 at up to EDGE_FIT nodes after the
-    EDGE_SKIP outermost ones, within the outer third of the run (the field further in need not
-    be sqrt-shaped); exact for f**2 linear or quadratic in x, on any grid.  If that is not
+    EDGE_SKIP outermost ones (more on a long run: BAND_OF_RUN, EDGE_FIT_MAX), within the outer
+    third of the run (the field further in need not be sqrt-shaped); exact for f**2 linear or
+    quadratic in x, on any grid.  If that is not
     possible (a short run), the skipped nodes are off the fit (a kink) or its root is not
     within :func:`edge_bounds`, the line through f**2 at the two outermost nodes is used
     (clipped to those bounds).
@@ -166,7 +191,8 @@ def sqrt_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> 
     end = i1 if step > 0 else i0
     inward = np.arange(end, i0 - 1, -1) if step > 0 else np.arange(end, i1 + 1)
     reach, (lo, hi) = inward.size // 3, edge_bounds(x, end, step)
-    nodes, outer = inward[EDGE_SKIP:min(EDGE_SKIP + EDGE_FIT, reach)], inward[:EDGE_SKIP]
+    fit = int(np.clip(inward.size // BAND_OF_RUN - EDGE_SKIP, EDGE_FIT, EDGE_FIT_MAX))
+    nodes, outer = inward[EDGE_SKIP:min(EDGE_SKIP + fit, reach)], inward[:EDGE_SKIP]
     if nodes.size >= 3:
         root = power_root(x[nodes], f[nodes] ** 2, x[end], -step,
                           skipped=(x[outer], f[outer] ** 2))
@@ -392,22 +418,27 @@ def _two_node_spread(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: i
     return abs(float(np.clip(root, lo, hi)) - e)
 
 
-def gap_edge(x: np.ndarray, gap: np.ndarray, status: np.ndarray, end: int, step: int
-             ) -> float | None:
+def gap_edge(x: np.ndarray, gap: np.ndarray, status: np.ndarray, end: int, step: int,
+             run_nodes: int = 0) -> float | None:
     """Edge from the open side: zero of gap**(2/3) (smooth through a sqrt edge, where the gap
     grows like distance**1.5) fitted at the GAP_FIT open nodes after the GAP_SKIP first ones
-    beyond node ``end`` in direction ``step``; None without enough open nodes of finite gap or
-    if the root is not within :func:`edge_bounds`."""
+    beyond node ``end`` in direction ``step`` (more on a long contact run of ``run_nodes``
+    nodes: GAP_OF_RUN .. GAP_FIT_MAX); None without enough open nodes of finite gap or if the
+    root is not within :func:`edge_bounds`."""
+    wide = run_nodes // GAP_OF_RUN >= GAP_WIDE
+    fit = min(run_nodes // GAP_OF_RUN, GAP_FIT_MAX) if wide else GAP_FIT
+    skip = GAP_SKIP_WIDE if wide else GAP_SKIP
     nodes = []
     j = end + step
     while 0 <= j < x.size and status[j] == OPEN and np.isfinite(gap[j]) and \
-            len(nodes) < GAP_SKIP + GAP_FIT:
+            len(nodes) < skip + fit:
         nodes.append(j)
         j += step
-    nodes = np.array(nodes[GAP_SKIP:], dtype=int)
+    nodes = np.array(nodes[skip:], dtype=int)
     if nodes.size < 2:
         return None
-    root = power_root(x[nodes], np.maximum(gap[nodes], 0.0) ** (2 / 3), x[end], step, 1)
+    root = power_root(x[nodes], np.maximum(gap[nodes], 0.0) ** (2 / 3), x[end], step,
+                      2 if wide else 1)
     lo, hi = edge_bounds(x, end, step)
     return root if root is not None and lo <= root <= hi else None
 
@@ -442,7 +473,8 @@ def contact_edge_estimates(x, p, status, candidate, gap=None) -> list[tuple[tupl
                     rising_to_edge(p, (i0, i1), end, step):
                 ends.append((float(x[end]), 0.0))
                 continue
-            g = gap_edge(x, gap, status, end, step) if gap is not None else None
+            g = gap_edge(x, gap, status, end, step, i1 - i0 + 1) \
+                if gap is not None else None
             e, u = edge_estimate(x, p, (i0, i1), step)
             ends.append((e, u) if g is None else (g, max(u, abs(g - e))))
         out.append((ends[0], ends[1]))

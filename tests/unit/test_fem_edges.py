@@ -11,11 +11,18 @@ import numpy as np
 import pytest
 
 from fem.results import (
+    BAND_OF_RUN,
+    EDGE_FIT,
+    EDGE_FIT_MAX,
+    EDGE_SKIP,
+    GAP_FIT_MAX,
+    GAP_OF_RUN,
     OPEN,
     SLIP,
     STICK,
     contact_and_stick,
     gap_edge,
+    power_root,
     runs,
     smooth_prefix,
     sqrt_edge,
@@ -92,6 +99,65 @@ def test_gap_edge_needs_open_nodes_of_finite_gap():
     gap = np.where(x < 0.5, 0.0, np.inf)  # beyond a sharp corner
     end = int(np.flatnonzero(status > OPEN)[-1])
     assert gap_edge(x, gap, status, end, +1) is None
+
+
+@pytest.mark.parametrize("grid", [uniform, graded])
+@pytest.mark.parametrize("b", [0.5013, 0.5219, 0.5488])
+def test_wide_band_exact_for_sqrt_profile_on_a_long_run(grid, b):
+    """A run of > 84 nodes takes a wider band (BAND_OF_RUN, up to EDGE_FIT_MAX): still exact."""
+    x = grid(4001, 1.0005) if grid is graded else grid(4001)
+    a = -0.6
+    p = 3.0 * np.sqrt(np.clip((b - x) * (x - a), 0.0, None))
+    i0, i1 = run_of(p)
+    assert (i1 - i0 + 1) // BAND_OF_RUN - EDGE_SKIP >= EDGE_FIT_MAX  # the widest band
+    h = x[i1 + 1] - x[i1]
+    assert sqrt_edge(x, p, (i0, i1), +1) == pytest.approx(b, abs=EXACT * h)
+    assert sqrt_edge(x, p, (i0, i1), -1) == pytest.approx(a, abs=EXACT * h)
+
+
+@pytest.mark.parametrize("b", [0.5013, 0.5219, 0.5488])
+def test_gap_edge_wide_band_exact_for_three_halves_gap(b):
+    """A contact run of >= GAP_OF_RUN * GAP_WIDE nodes: quadratic of g**(2/3) past the first
+    GAP_SKIP_WIDE open nodes, exact for g ~ d**1.5 (1 + d), whose g**(2/3) is not a line."""
+    x = uniform(2001)
+    status = np.where(x < b, STICK, OPEN)
+    d = np.clip(x - b, 0.0, None)
+    gap = np.where(x < b, -1e-9, 0.7 * (d * (1.0 + 0.3 * d)) ** 1.5)
+    end = int(np.flatnonzero(status > OPEN)[-1])
+    h = x[end + 1] - x[end]
+    long_run = GAP_OF_RUN * GAP_FIT_MAX
+    assert gap_edge(x, gap, status, end, +1, long_run) == pytest.approx(b, abs=EXACT * h)
+    assert abs(gap_edge(x, gap, status, end, +1) - b) > 1e3 * EXACT * h  # three nodes, a line
+
+
+#: A smeared tail like our FE's (issue 28, cattaneo): f**2 at node k >= 3 from the end implies an
+#: edge TAIL * 2**(2 - k) elements further out (measured +0.008 / +0.004 / +0.001 at nodes 3-5
+#: above the smooth part); the quadratic through nodes 3-7 extrapolates it (0.024 element on
+#: this model at every h, 0.017-0.036 measured), the wide band reads through it (0.004).
+TAIL, OLD_FIT_ERROR, WIDE_BAND_ERROR = 0.016, 0.015, 0.006
+
+
+def smeared_hertz(n: int, phase: float):
+    """Hertz f**2 = 1 - x**2 on nodes of spacing 1/n shifted by ``phase`` elements, its right
+    end's nodes k >= 3 shifted outwards by the decaying tail."""
+    h = 1.0 / n
+    x = (np.arange(-n - 8, n + 9) + phase) * h
+    f2 = np.clip(1.0 - x * x, 0.0, None)
+    (run,) = runs(f2 > 0)
+    k = run[1] - np.arange(x.size) + 1
+    shift = np.where((k >= 3) & (f2 > 0), TAIL * 0.5 ** (k - 2.0), 0.0) * h
+    return x, np.sqrt(f2 + 2.0 * x * shift), run, h
+
+
+@pytest.mark.parametrize("phase", [0.1, 0.37, 0.64, 0.9])
+def test_wide_band_reads_through_a_smeared_tail(phase):
+    for n in (400, 800):
+        x, f, run, h = smeared_hertz(n, phase)
+        inward = np.arange(run[1], run[0] - 1, -1)
+        nodes = inward[EDGE_SKIP:EDGE_SKIP + EDGE_FIT]
+        old = power_root(x[nodes], f[nodes] ** 2, x[run[1]], -1)
+        assert abs(old - 1.0) / h > OLD_FIT_ERROR
+        assert abs(sqrt_edge(x, f, run, +1) - 1.0) / h < WIDE_BAND_ERROR
 
 
 def cattaneo_nodes(x, a, c, mu=0.5, reverse=False):
