@@ -22,6 +22,7 @@ from skfem import (
     MeshQuad,
     asm,
 )
+from skfem.assembly import Dofs
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 from .mesh import INTERFACE_ATOL, TwoBodyMesh
@@ -43,11 +44,44 @@ class Interface:
     dof2: np.ndarray
 
 
+@dataclass(frozen=True, eq=False)
+class VectorDofs:
+    """Vector dof numbering of one body, ``2 * scalar dof + component`` (skfem's
+    ``ElementVector`` numbering), without a vector basis's quadrature data (its values and
+    gradients at every quadrature point: 0.8 GB at cattaneo ring level 5, issue 28).
+
+    N: vector dofs; doflocs: (2, N) dof coordinates; element_dofs: (2 n_loc, n_elements),
+    row ``2 a + k`` the component-k dof of local scalar dof a.
+    """
+
+    N: int
+    doflocs: np.ndarray
+    element_dofs: np.ndarray
+
+
+def vector_dofs(scalar: Basis) -> VectorDofs:
+    """The vector dof numbering over a scalar basis."""
+    ed = scalar.element_dofs
+    element_dofs = np.empty((2 * ed.shape[0], ed.shape[1]), dtype=ed.dtype)
+    element_dofs[0::2], element_dofs[1::2] = 2 * ed, 2 * ed + 1
+    return VectorDofs(N=2 * scalar.N, doflocs=np.repeat(scalar.doflocs, 2, axis=1),
+                      element_dofs=element_dofs)
+
+
+def vector_facet_dofs(scalar: Basis, vec: VectorDofs, facets: np.ndarray) -> np.ndarray:
+    """Vector dofs on ``facets`` in the order of skfem's vector ``Basis.get_dofs(facets)``."""
+    dofs = Dofs(scalar.mesh, ElementVector(scalar.elem))
+    return dofs.get_facet_dofs(facets, doflocs=vec.doflocs).all()
+
+
 @dataclass(frozen=True)
 class Discretisation:
-    """Assembled two-body problem: bases, stiffness matrices, fixed dofs, interface.
+    """Assembled two-body problem: dof numberings, bases, stiffness matrices, fixed dofs,
+    interface.
 
-    bases, scalar_bases: per body (vector and scalar). stiffness: (K1, K2).
+    bases: per body, the vector dof numbering (:class:`VectorDofs`); scalar_bases: per body,
+    the scalar skfem basis (quadrature data for the stiffness, the stress projection and the
+    mass matrix). stiffness: (K1, K2).
     fixed: prescribed dofs of body 1 (top, or the whole outer boundary with
     boundary='half-plane') and body 2 (bottom, or its whole outer boundary).
     E, nu: material; order: element order.
@@ -111,8 +145,16 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
         cols = np.broadcast_to(vec[:, None, :, None, :], Ke.shape)
         parts.append((Ke.ravel(), rows.ravel(), cols.ravel()))
     data, r, c = (np.concatenate(x) for x in zip(*parts, strict=True))
+    del parts
     n = 2 * scalar.N
-    return sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr()
+    return compact(sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr())
+
+
+def compact(A: sp.csr_matrix) -> sp.csr_matrix:
+    """A with arrays of its own size: ``coo.tocsr()`` sums the duplicates in place and keeps
+    views into the COO-sized arrays (one entry per element-matrix entry, 1.8x the nonzeros of
+    a Q1 stiffness: 0.5 GB held for nothing at cattaneo ring level 5, issue 28)."""
+    return sp.csr_matrix((A.data.copy(), A.indices.copy(), A.indptr.copy()), shape=A.shape)
 
 
 def mass_matrix(scalar: Basis) -> sp.csr_matrix:
@@ -123,7 +165,7 @@ def mass_matrix(scalar: Basis) -> sp.csr_matrix:
     rows = np.broadcast_to(dofs[:, :, None], Me.shape)
     cols = np.broadcast_to(dofs[:, None, :], Me.shape)
     n = scalar.N
-    return sp.coo_matrix((Me.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n)).tocsr()
+    return compact(sp.coo_matrix((Me.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n)).tocsr())
 
 
 def facets_on(mesh: MeshQuad, nodes: np.ndarray) -> np.ndarray:
@@ -166,19 +208,19 @@ def discretise(
     'half-plane' (every boundary dof off y = 0 fixed; fem.farfield prescribes it).
     """
     scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
-    # the vector bases share the scalar ones' mapping and quadrature (no second set-up)
-    b1, b2 = (s.with_element(ElementVector(ELEMENTS[order]())) for s in scalars)
+    b1, b2 = (vector_dofs(s) for s in scalars)
     K1, K2 = (elasticity_matrix(s, E, nu) for s in scalars)
     x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order, scalars[0])
     x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order, scalars[1])
     if boundary == "half-plane":
         fixed = tuple(
-            b.get_dofs(outer_facets(m)).all() for b, m in zip((b1, b2), mesh.bodies, strict=True)
+            vector_facet_dofs(s, b, outer_facets(m))
+            for s, b, m in zip(scalars, (b1, b2), mesh.bodies, strict=True)
         )
     else:
         fixed = (
-            b1.get_dofs(facets_on(mesh.bodies[0], mesh.nodes["top"])).all(),
-            b2.get_dofs(facets_on(mesh.bodies[1], mesh.nodes["bottom"])).all(),
+            vector_facet_dofs(scalars[0], b1, facets_on(mesh.bodies[0], mesh.nodes["top"])),
+            vector_facet_dofs(scalars[1], b2, facets_on(mesh.bodies[1], mesh.nodes["bottom"])),
         )
     iface = Interface(x=0.5 * (x1 + x2), w=0.5 * (w1 + w2), dof1=d1, dof2=d2)
     return Discretisation(
@@ -216,6 +258,7 @@ def reduced_stiffness(disc: Discretisation, free: np.ndarray) -> sp.csc_matrix:
 __all__ = [
     "Discretisation",
     "Interface",
+    "VectorDofs",
     "discretise",
     "free_dofs",
     "mass_matrix",
