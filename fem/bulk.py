@@ -8,6 +8,7 @@ for Q1, Simpson weights 1/6, 4/6, 1/6 for Q2).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,14 +75,35 @@ def vector_facet_dofs(scalar: Basis, vec: VectorDofs, facets: np.ndarray) -> np.
     return dofs.get_facet_dofs(facets, doflocs=vec.doflocs).all()
 
 
+class ScalarBases(Sequence):
+    """The bodies' scalar skfem bases, each built on first use and then kept.  The history
+    (factorisation, increments, displacement recovery) needs none of their quadrature data, so
+    :func:`discretise` does not keep the ones it assembled with (they would sit beside the
+    factors: about 0.5 GB at cattaneo ring level 6, issue 28); the stress projection, the
+    stress metrics and the VTK output build them again (the same bases: a basis is a function
+    of its mesh and element)."""
+
+    def __init__(self, meshes, order: int):
+        self.meshes, self.order = tuple(meshes), order
+        self._built = [None] * len(self.meshes)
+
+    def __len__(self) -> int:
+        return len(self.meshes)
+
+    def __getitem__(self, body: int) -> Basis:
+        if self._built[body] is None:
+            self._built[body] = Basis(self.meshes[body], ELEMENTS[self.order]())
+        return self._built[body]
+
+
 @dataclass(frozen=True)
 class Discretisation:
     """Assembled two-body problem: dof numberings, bases, stiffness matrices, fixed dofs,
     interface.
 
     bases: per body, the vector dof numbering (:class:`VectorDofs`); scalar_bases: per body,
-    the scalar skfem basis (quadrature data for the stiffness, the stress projection and the
-    mass matrix). stiffness: (K1, K2).
+    the scalar skfem basis (quadrature data for the stress projection and the mass matrix;
+    :class:`ScalarBases`, built when first asked for). stiffness: (K1, K2).
     fixed: prescribed dofs of body 1 (top, or the whole outer boundary with
     boundary='half-plane') and body 2 (bottom, or its whole outer boundary).
     E, nu: material; order: element order.
@@ -92,7 +114,7 @@ class Discretisation:
     E: float
     nu: float
     bases: tuple
-    scalar_bases: tuple
+    scalar_bases: ScalarBases
     stiffness: tuple
     fixed: tuple
     interface: Interface
@@ -131,7 +153,11 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
     dofs = scalar.element_dofs  # (n_loc, n_el)
     n_loc, n_el = dofs.shape
     eye = np.eye(2)
-    parts = []
+    per_el = (2 * n_loc) ** 2
+    # the triplets go straight into arrays of their final size: no list of per-block arrays
+    # and no concatenated copy (the blocks' arrays, freed at once, leave no heap behind)
+    data = np.empty(n_el * per_el)
+    r, c = np.empty(n_el * per_el, dtype=np.int64), np.empty(n_el * per_el, dtype=np.int64)
     for e0 in range(0, n_el, ELEMENT_BLOCK):
         sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
         g = grads[:, :, sl]
@@ -141,11 +167,11 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
             lam * D + mu * D.transpose(0, 1, 2, 4, 3) + mu * trace[..., None, None] * eye
         )  # (e, a, b, i, j)
         vec = 2 * dofs[:, sl].T[:, :, None] + np.arange(2)  # (e, a, i)
-        rows = np.broadcast_to(vec[:, :, None, :, None], Ke.shape)
-        cols = np.broadcast_to(vec[:, None, :, None, :], Ke.shape)
-        parts.append((Ke.ravel(), rows.ravel(), cols.ravel()))
-    data, r, c = (np.concatenate(x) for x in zip(*parts, strict=True))
-    del parts
+        out = slice(sl.start * per_el, sl.stop * per_el)
+        data[out] = Ke.ravel()
+        r[out] = np.broadcast_to(vec[:, :, None, :, None], Ke.shape).ravel()
+        c[out] = np.broadcast_to(vec[:, None, :, None, :], Ke.shape).ravel()
+        del D, trace, Ke, vec
     n = 2 * scalar.N
     return compact(sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr())
 
@@ -229,7 +255,7 @@ def discretise(
         E=E,
         nu=nu,
         bases=(b1, b2),
-        scalar_bases=scalars,
+        scalar_bases=ScalarBases(mesh.bodies, order),
         stiffness=(K1, K2),
         fixed=fixed,
         interface=iface,
@@ -258,6 +284,7 @@ def reduced_stiffness(disc: Discretisation, free: np.ndarray) -> sp.csc_matrix:
 __all__ = [
     "Discretisation",
     "Interface",
+    "ScalarBases",
     "VectorDofs",
     "discretise",
     "free_dofs",
