@@ -101,7 +101,24 @@ def condense(
 
 def with_pair_loads(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> Factor:
     """The factor with ``pair_solve`` as a general solve of the pair loads."""
-    return replace(factor, pair_solve=lambda lam: factor.solve(pair_loads(factor.n, f1, f2, lam)))
+
+    def pair_solve(lam: np.ndarray, out: np.ndarray | None = None,
+                   rows: np.ndarray | None = None) -> np.ndarray:
+        x = factor.solve(pair_loads(factor.n, f1, f2, lam))
+        if out is None:
+            return x
+        out[np.arange(factor.n) if rows is None else rows] = x
+        return out
+
+    return replace(factor, pair_solve=pair_solve)
+
+
+def pair_target(n: int, lam: np.ndarray, out: np.ndarray | None, rows: np.ndarray | None):
+    """``(out, rows)`` of a pair solve: the solution's dof i goes to ``out[rows[i]]``
+    (default: a new (n, k) array, ``rows`` the identity)."""
+    if out is None:
+        out = np.empty((n, lam.shape[1]))
+    return out, np.arange(n) if rows is None else rows
 
 
 def compliance(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
@@ -165,16 +182,19 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
             out[idx] = x if signs is None else x * signs.reshape(-1, *[1] * (b.ndim - 1))
         return out
 
-    def pair_solve(lam: np.ndarray) -> np.ndarray:
+    def pair_solve(lam: np.ndarray, out: np.ndarray | None = None,
+                   rows: np.ndarray | None = None) -> np.ndarray:
         lam = np.atleast_2d(np.asarray(lam, dtype=float).T).T
-        out = np.empty((n, lam.shape[1]))
+        out, rows = pair_target(n, lam, out, rows)
         for (idx, perm, chol, packed, signs), sign in zip(parts, (1.0, -1.0), strict=True):
             if signs is None:
-                out[idx[perm]] = backward_solve(chol, packed, sign * lam, idx.size)
+                out[rows[idx[perm]]] = backward_solve(chol, packed, sign * lam, idx.size)
                 continue
             d = signs[perm][:, None]  # a mirror body: K_2^-1 = D K_1^-1 D
-            out[idx[perm]] = d * backward_solve(chol, packed, sign * d[-lam.shape[0]:] * lam,
-                                                idx.size)
+            x = backward_solve(chol, packed, sign * d[-lam.shape[0]:] * lam, idx.size)
+            x *= d
+            out[rows[idx[perm]]] = x
+            del x
         return out
 
     return Factor(backend="cholmod", solve=solve, n=n, pair_solve=pair_solve), C
@@ -187,7 +207,7 @@ def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarra
     L22, info = dtpttr(m, packed, uplo="L")
     if info != 0:
         raise ConvergenceError(f"recovery: LAPACK tpttr failed (info={info})")
-    y = np.zeros((n, f.shape[1]))
+    y = np.zeros((n, f.shape[1]), order="F")  # CHOLMOD's layout: no copy on the way in
     y[-m:] = solve_triangular(L22, f, lower=True, check_finite=False)
     del L22
     return chol.solve_Lt(y, use_LDLt_decomposition=False)

@@ -44,14 +44,13 @@ class FieldRecovery:
         """Recover the full fields of a list of converged contact states."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
-        if model.factor.pair_solve is not None:
-            Uf = model.factor.pair_solve(lam)
-        else:
-            Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
-        N1 = disc.bases[0].N
         U = np.zeros((disc.n_dofs, lam.shape[1]))
-        U[model.free] = Uf
-        del Uf
+        if model.factor.pair_solve is not None:  # straight into the free rows of U
+            model.factor.pair_solve(lam, out=U, rows=model.free)
+        else:
+            U[model.free] = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2,
+                                                          lam))
+        N1 = disc.bases[0].N
         if model.far is not None:
             U += model.far.displacement(lam)
         U1, U2 = U[:N1], U[N1:]  # views: no second copy of the fields

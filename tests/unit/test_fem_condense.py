@@ -94,6 +94,11 @@ def test_every_backend_has_a_pair_solve(backend):
     lam = np.random.default_rng(2).normal(size=(m, 3))
     ref = coupled_solve(K, f1, f2, lam)
     assert np.allclose(factor.pair_solve(lam), ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    rows = np.random.default_rng(4).permutation(K.shape[0] + 7)[: K.shape[0]]
+    out = np.full((K.shape[0] + 7, 3), 5.0)  # written in place: rows[i] gets dof i
+    assert factor.pair_solve(lam, out=out, rows=rows) is out
+    assert np.array_equal(out[rows], factor.pair_solve(lam))
+    assert np.all(np.delete(out, rows, axis=0) == 5.0)
 
 
 def test_recovered_fields_equal_a_coupled_solve_on_a_small_mesh():
