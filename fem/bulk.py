@@ -8,6 +8,7 @@ for Q1, Simpson weights 1/6, 4/6, 1/6 for Q2).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +23,7 @@ from skfem import (
     MeshQuad,
     asm,
 )
+from skfem.assembly import Dofs
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 from .mesh import INTERFACE_ATOL, TwoBodyMesh
@@ -43,11 +45,65 @@ class Interface:
     dof2: np.ndarray
 
 
+@dataclass(frozen=True, eq=False)
+class VectorDofs:
+    """Vector dof numbering of one body, ``2 * scalar dof + component`` (skfem's
+    ``ElementVector`` numbering), without a vector basis's quadrature data (its values and
+    gradients at every quadrature point: 0.8 GB at cattaneo ring level 5, issue 28).
+
+    N: vector dofs; doflocs: (2, N) dof coordinates; element_dofs: (2 n_loc, n_elements),
+    row ``2 a + k`` the component-k dof of local scalar dof a.
+    """
+
+    N: int
+    doflocs: np.ndarray
+    element_dofs: np.ndarray
+
+
+def vector_dofs(scalar: Basis) -> VectorDofs:
+    """The vector dof numbering over a scalar basis."""
+    ed = scalar.element_dofs
+    element_dofs = np.empty((2 * ed.shape[0], ed.shape[1]), dtype=ed.dtype)
+    element_dofs[0::2], element_dofs[1::2] = 2 * ed, 2 * ed + 1
+    return VectorDofs(N=2 * scalar.N, doflocs=np.repeat(scalar.doflocs, 2, axis=1),
+                      element_dofs=element_dofs)
+
+
+def vector_facet_dofs(scalar: Basis, vec: VectorDofs, facets: np.ndarray) -> np.ndarray:
+    """Vector dofs on ``facets`` in the order of skfem's vector ``Basis.get_dofs(facets)``."""
+    dofs = Dofs(scalar.mesh, ElementVector(scalar.elem))
+    return dofs.get_facet_dofs(facets, doflocs=vec.doflocs).all()
+
+
+class ScalarBases(Sequence):
+    """The bodies' scalar skfem bases, each built on first use and then kept.  The history
+    (factorisation, increments, displacement recovery) needs none of their quadrature data, so
+    :func:`discretise` does not keep the ones it assembled with (they would sit beside the
+    factors: about 0.5 GB at cattaneo ring level 6, issue 28); the stress projection, the
+    stress metrics and the VTK output build them again (the same bases: a basis is a function
+    of its mesh and element)."""
+
+    def __init__(self, meshes, order: int):
+        self.meshes, self.order = tuple(meshes), order
+        self._built = [None] * len(self.meshes)
+
+    def __len__(self) -> int:
+        return len(self.meshes)
+
+    def __getitem__(self, body: int) -> Basis:
+        if self._built[body] is None:
+            self._built[body] = Basis(self.meshes[body], ELEMENTS[self.order]())
+        return self._built[body]
+
+
 @dataclass(frozen=True)
 class Discretisation:
-    """Assembled two-body problem: bases, stiffness matrices, fixed dofs, interface.
+    """Assembled two-body problem: dof numberings, bases, stiffness matrices, fixed dofs,
+    interface.
 
-    bases, scalar_bases: per body (vector and scalar). stiffness: (K1, K2).
+    bases: per body, the vector dof numbering (:class:`VectorDofs`); scalar_bases: per body,
+    the scalar skfem basis (quadrature data for the stress projection and the mass matrix;
+    :class:`ScalarBases`, built when first asked for). stiffness: (K1, K2).
     fixed: prescribed dofs of body 1 (top, or the whole outer boundary with
     boundary='half-plane') and body 2 (bottom, or its whole outer boundary).
     E, nu: material; order: element order.
@@ -58,7 +114,7 @@ class Discretisation:
     E: float
     nu: float
     bases: tuple
-    scalar_bases: tuple
+    scalar_bases: ScalarBases
     stiffness: tuple
     fixed: tuple
     interface: Interface
@@ -97,7 +153,11 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
     dofs = scalar.element_dofs  # (n_loc, n_el)
     n_loc, n_el = dofs.shape
     eye = np.eye(2)
-    parts = []
+    per_el = (2 * n_loc) ** 2
+    # the triplets go straight into arrays of their final size: no list of per-block arrays
+    # and no concatenated copy (the blocks' arrays, freed at once, leave no heap behind)
+    data = np.empty(n_el * per_el)
+    r, c = np.empty(n_el * per_el, dtype=np.int64), np.empty(n_el * per_el, dtype=np.int64)
     for e0 in range(0, n_el, ELEMENT_BLOCK):
         sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
         g = grads[:, :, sl]
@@ -107,12 +167,20 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
             lam * D + mu * D.transpose(0, 1, 2, 4, 3) + mu * trace[..., None, None] * eye
         )  # (e, a, b, i, j)
         vec = 2 * dofs[:, sl].T[:, :, None] + np.arange(2)  # (e, a, i)
-        rows = np.broadcast_to(vec[:, :, None, :, None], Ke.shape)
-        cols = np.broadcast_to(vec[:, None, :, None, :], Ke.shape)
-        parts.append((Ke.ravel(), rows.ravel(), cols.ravel()))
-    data, r, c = (np.concatenate(x) for x in zip(*parts, strict=True))
+        out = slice(sl.start * per_el, sl.stop * per_el)
+        data[out] = Ke.ravel()
+        r[out] = np.broadcast_to(vec[:, :, None, :, None], Ke.shape).ravel()
+        c[out] = np.broadcast_to(vec[:, None, :, None, :], Ke.shape).ravel()
+        del D, trace, Ke, vec
     n = 2 * scalar.N
-    return sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr()
+    return compact(sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr())
+
+
+def compact(A: sp.csr_matrix) -> sp.csr_matrix:
+    """A with arrays of its own size: ``coo.tocsr()`` sums the duplicates in place and keeps
+    views into the COO-sized arrays (one entry per element-matrix entry, 1.8x the nonzeros of
+    a Q1 stiffness: 0.5 GB held for nothing at cattaneo ring level 5, issue 28)."""
+    return sp.csr_matrix((A.data.copy(), A.indices.copy(), A.indptr.copy()), shape=A.shape)
 
 
 def mass_matrix(scalar: Basis) -> sp.csr_matrix:
@@ -123,7 +191,7 @@ def mass_matrix(scalar: Basis) -> sp.csr_matrix:
     rows = np.broadcast_to(dofs[:, :, None], Me.shape)
     cols = np.broadcast_to(dofs[:, None, :], Me.shape)
     n = scalar.N
-    return sp.coo_matrix((Me.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n)).tocsr()
+    return compact(sp.coo_matrix((Me.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n)).tocsr())
 
 
 def facets_on(mesh: MeshQuad, nodes: np.ndarray) -> np.ndarray:
@@ -166,19 +234,19 @@ def discretise(
     'half-plane' (every boundary dof off y = 0 fixed; fem.farfield prescribes it).
     """
     scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
-    # the vector bases share the scalar ones' mapping and quadrature (no second set-up)
-    b1, b2 = (s.with_element(ElementVector(ELEMENTS[order]())) for s in scalars)
+    b1, b2 = (vector_dofs(s) for s in scalars)
     K1, K2 = (elasticity_matrix(s, E, nu) for s in scalars)
     x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order, scalars[0])
     x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order, scalars[1])
     if boundary == "half-plane":
         fixed = tuple(
-            b.get_dofs(outer_facets(m)).all() for b, m in zip((b1, b2), mesh.bodies, strict=True)
+            vector_facet_dofs(s, b, outer_facets(m))
+            for s, b, m in zip(scalars, (b1, b2), mesh.bodies, strict=True)
         )
     else:
         fixed = (
-            b1.get_dofs(facets_on(mesh.bodies[0], mesh.nodes["top"])).all(),
-            b2.get_dofs(facets_on(mesh.bodies[1], mesh.nodes["bottom"])).all(),
+            vector_facet_dofs(scalars[0], b1, facets_on(mesh.bodies[0], mesh.nodes["top"])),
+            vector_facet_dofs(scalars[1], b2, facets_on(mesh.bodies[1], mesh.nodes["bottom"])),
         )
     iface = Interface(x=0.5 * (x1 + x2), w=0.5 * (w1 + w2), dof1=d1, dof2=d2)
     return Discretisation(
@@ -187,7 +255,7 @@ def discretise(
         E=E,
         nu=nu,
         bases=(b1, b2),
-        scalar_bases=scalars,
+        scalar_bases=ScalarBases(mesh.bodies, order),
         stiffness=(K1, K2),
         fixed=fixed,
         interface=iface,
@@ -216,6 +284,8 @@ def reduced_stiffness(disc: Discretisation, free: np.ndarray) -> sp.csc_matrix:
 __all__ = [
     "Discretisation",
     "Interface",
+    "ScalarBases",
+    "VectorDofs",
     "discretise",
     "free_dofs",
     "mass_matrix",

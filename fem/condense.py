@@ -82,18 +82,43 @@ def pair_loads(n_free: int, f1: np.ndarray, f2: np.ndarray, lam: np.ndarray) -> 
 def condense(
     K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray, backend: str = "auto"
 ) -> tuple[Factor, np.ndarray]:
-    """Factorise K once and return the factor and the pair compliance C."""
+    """Factorise K once and return the factor and the pair compliance C.  With CHOLMOD and
+    uncoupled bodies K is cut into its body blocks and dropped before the factorisations (a
+    caller that passes a temporary K does not keep it beside the factors: issue 28)."""
     if backend == "auto":
         backend = available_backends()[0]
     if backend == "cholmod":
-        return schur_cholmod(K, f1, f2)
+        blocks = body_blocks(K, f1, f2)
+        if blocks is not None:
+            n = K.shape[0]
+            bodies = [(K[idx][:, idx].tocsc(), idx, np.searchsorted(idx, pairs))
+                      for idx, pairs in zip(blocks, (f1, f2), strict=True)]
+            del K
+            return schur_cholmod(bodies, n)
     factor = factorize(K, backend)
     return with_pair_loads(factor, f1, f2), compliance(factor, f1, f2)
 
 
 def with_pair_loads(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> Factor:
     """The factor with ``pair_solve`` as a general solve of the pair loads."""
-    return replace(factor, pair_solve=lambda lam: factor.solve(pair_loads(factor.n, f1, f2, lam)))
+
+    def pair_solve(lam: np.ndarray, out: np.ndarray | None = None,
+                   rows: np.ndarray | None = None) -> np.ndarray:
+        x = factor.solve(pair_loads(factor.n, f1, f2, lam))
+        if out is None:
+            return x
+        out[np.arange(factor.n) if rows is None else rows] = x
+        return out
+
+    return replace(factor, pair_solve=pair_solve)
+
+
+def pair_target(n: int, lam: np.ndarray, out: np.ndarray | None, rows: np.ndarray | None):
+    """``(out, rows)`` of a pair solve: the solution's dof i goes to ``out[rows[i]]``
+    (default: a new (n, k) array, ``rows`` the identity)."""
+    if out is None:
+        out = np.empty((n, lam.shape[1]))
+    return out, np.arange(n) if rows is None else rows
 
 
 def compliance(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
@@ -120,24 +145,29 @@ def body_blocks(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray):
     return np.flatnonzero(in1), np.flatnonzero(~in1)
 
 
-def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Factor, np.ndarray]:
-    """CHOLMOD factor per body with its pair dofs ordered last; C from the trailing blocks."""
-    blocks = body_blocks(K, f1, f2)
-    if blocks is None:
-        factor = factorize(K, "cholmod")
-        return with_pair_loads(factor, f1, f2), compliance(factor, f1, f2)
-    parts, C, first = [], None, None
-    for idx, pairs in zip(blocks, (f1, f2), strict=True):
-        local = np.searchsorted(idx, pairs)
-        Kb = K[idx][:, idx].tocsc()
-        signs = None if first is None else mirror_signs(first[0], Kb, first[1], local)
-        if signs is not None:  # the mirror image of body 1: its factor, C_2 = D C_1 D
-            parts.append((idx, *first[2:], signs))
+def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
+    """CHOLMOD factor per body with its pair dofs ordered last; C from the trailing blocks.
+    ``bodies``: ``[(Kb, idx, local), ...]`` for body 1 and the rest (the body's stiffness, its
+    free dofs in K of size n, the local indices of its pair dofs); emptied as it is used: a
+    mirror body's stiffness is dropped once checked, a body's own once factorised (before its
+    trailing block is read, issue 28)."""
+    (K1, idx1, local1), (K2, idx2, local2) = bodies
+    signs = mirror_signs(K1, K2, local1, local2)
+    if signs is not None:  # the mirror image of body 1: its factor, C_2 = D C_1 D
+        bodies[1] = (None, idx2, local2)
+    del K1, K2
+    parts, C = [], None
+    for b in range(len(bodies)):
+        Kb, idx, local = bodies[b]
+        bodies[b] = None
+        if Kb is None:
+            parts.append((idx, *parts[0][1:4], signs))
             flip_add(C, signs[local])
             continue
-        chol, perm, Cb, packed = body_compliance(Kb, local)
+        chol, perm = body_factor(Kb, local)
+        del Kb
+        Cb, packed = trailing_compliance(chol, local.size)
         parts.append((idx, perm, chol, packed, None))
-        first = (Kb, local, perm, chol, packed)
         C = Cb if C is None else np.add(C, Cb, out=C)
         del Cb
     mirror_lower(C)
@@ -152,19 +182,22 @@ def schur_cholmod(K: sp.csc_matrix, f1: np.ndarray, f2: np.ndarray) -> tuple[Fac
             out[idx] = x if signs is None else x * signs.reshape(-1, *[1] * (b.ndim - 1))
         return out
 
-    def pair_solve(lam: np.ndarray) -> np.ndarray:
+    def pair_solve(lam: np.ndarray, out: np.ndarray | None = None,
+                   rows: np.ndarray | None = None) -> np.ndarray:
         lam = np.atleast_2d(np.asarray(lam, dtype=float).T).T
-        out = np.empty((K.shape[0], lam.shape[1]))
+        out, rows = pair_target(n, lam, out, rows)
         for (idx, perm, chol, packed, signs), sign in zip(parts, (1.0, -1.0), strict=True):
             if signs is None:
-                out[idx[perm]] = backward_solve(chol, packed, sign * lam, idx.size)
+                out[rows[idx[perm]]] = backward_solve(chol, packed, sign * lam, idx.size)
                 continue
             d = signs[perm][:, None]  # a mirror body: K_2^-1 = D K_1^-1 D
-            out[idx[perm]] = d * backward_solve(chol, packed, sign * d[-lam.shape[0]:] * lam,
-                                                idx.size)
+            x = backward_solve(chol, packed, sign * d[-lam.shape[0]:] * lam, idx.size)
+            x *= d
+            out[rows[idx[perm]]] = x
+            del x
         return out
 
-    return Factor(backend="cholmod", solve=solve, n=K.shape[0], pair_solve=pair_solve), C
+    return Factor(backend="cholmod", solve=solve, n=n, pair_solve=pair_solve), C
 
 
 def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarray:
@@ -174,7 +207,7 @@ def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarra
     L22, info = dtpttr(m, packed, uplo="L")
     if info != 0:
         raise ConvergenceError(f"recovery: LAPACK tpttr failed (info={info})")
-    y = np.zeros((n, f.shape[1]))
+    y = np.zeros((n, f.shape[1]), order="F")  # CHOLMOD's layout: no copy on the way in
     y[-m:] = solve_triangular(L22, f, lower=True, check_finite=False)
     del L22
     return chol.solve_Lt(y, use_LDLt_decomposition=False)
@@ -215,19 +248,23 @@ def flip_add(C: np.ndarray, d: np.ndarray) -> None:
         C[r0:r1] *= 1.0 + d[r0:r1, None] * d[None, :]
 
 
-def body_compliance(Kb: sp.csc_matrix, gamma: np.ndarray):
-    """``(chol, perm, C_b, packed)`` of one body: CHOLMOD factor of ``Kb[perm][:, perm]`` with
-    the pair dofs ``gamma`` last, ``C_b = (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing
-    factor block ``L22`` (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and
-    ``L22`` itself packed (lower, LAPACK ``trttp``) for the recovery's backward solves."""
+def body_factor(Kb: sp.csc_matrix, gamma: np.ndarray):
+    """``(chol, perm)`` of one body: CHOLMOD factor of ``Kb[perm][:, perm]`` with the pair dofs
+    ``gamma`` last (INNER_ORDERING of the rest)."""
     from sksparse.cholmod import analyze, cholesky
 
     inner = np.setdiff1d(np.arange(Kb.shape[0]), gamma)
     method = INNER_ORDERING if Kb.shape[0] >= NESDIS_MIN_DOFS else "default"
     order = analyze(Kb[inner][:, inner].tocsc(), ordering_method=method)
     perm = np.r_[inner[order.P()], gamma]
-    chol = cholesky(Kb[perm][:, perm].tocsc(), ordering_method="natural")
-    m = gamma.size
+    return cholesky(Kb[perm][:, perm].tocsc(), ordering_method="natural"), perm
+
+
+def trailing_compliance(chol, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(C_b, packed)`` from a body's factor with its m pair dofs last: ``C_b =
+    (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing factor block ``L22``
+    (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and ``L22`` itself
+    packed (lower, LAPACK ``trttp``) for the recovery's backward solves."""
     L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
     packed, info = dtrttp(L22, uplo="L")
     if info != 0:
@@ -235,7 +272,7 @@ def body_compliance(Kb: sp.csc_matrix, gamma: np.ndarray):
     Cb, info = dpotri(L22, lower=1, overwrite_c=1)
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK potri failed (info={info})")
-    return chol, perm, Cb, packed
+    return Cb, packed
 
 
 def mirror_lower(A: np.ndarray) -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
 
-from .bulk import mass_matrix
+from .bulk import mass_matrix, vector_dofs
 from .condense import pair_loads
 from .linsolve import factorize
 
@@ -26,13 +26,12 @@ class FieldRecovery:
         #: Sparse backend of the stress projections (the bulk's: CHOLMOD when available).
         self.backend = backend
         self.U = (U1, U2)
-        K1 = disc.stiffness[0]
-        F1 = K1 @ U1
         top = disc.fixed[0]
+        F1 = disc.stiffness[0][top] @ U1  # the top rows of K1 U1 only
         xy = disc.bases[0].doflocs[:, top]
         is_x = top % 2 == 0
-        rx = np.where(is_x[:, None], F1[top], 0.0)
-        ry = np.where(~is_x[:, None], F1[top], 0.0)
+        rx = np.where(is_x[:, None], F1, 0.0)
+        ry = np.where(~is_x[:, None], F1, 0.0)
         self._reactions = np.c_[-ry.sum(axis=0), rx.sum(axis=0), -(xy[0] @ ry - xy[1] @ rx)]
         #: Largest lever arm (about (0, 0)) of the plate reaction forces (length).
         self.lever = float(np.max(np.hypot(xy[0], xy[1])))
@@ -45,22 +44,20 @@ class FieldRecovery:
         """Recover the full fields of a list of converged contact states."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
-        if model.factor.pair_solve is not None:
-            Uf = model.factor.pair_solve(lam)
-        else:
-            Uf = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2, lam))
-        N1 = disc.bases[0].N
         U = np.zeros((disc.n_dofs, lam.shape[1]))
-        U[model.free] = Uf
+        if model.factor.pair_solve is not None:  # straight into the free rows of U
+            model.factor.pair_solve(lam, out=U, rows=model.free)
+        else:
+            U[model.free] = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2,
+                                                          lam))
+        N1 = disc.bases[0].N
         if model.far is not None:
             U += model.far.displacement(lam)
-        U1, U2 = U[:N1], U[N1:]
+        U1, U2 = U[:N1], U[N1:]  # views: no second copy of the fields
         loc = disc.bases[0].doflocs
         z = np.array([s.z for s in states]).T
-        even = np.arange(N1) % 2 == 0
-        rigid_u = z[0][None, :] - loc[1][:, None] * z[2][None, :]
-        rigid_v = z[1][None, :] + loc[0][:, None] * z[2][None, :]
-        U1 = U1 + np.where(even[:, None], rigid_u, rigid_v)
+        U1[0::2] += z[0][None, :] - loc[1, 0::2, None] * z[2][None, :]  # plate's rigid motion
+        U1[1::2] += z[1][None, :] + loc[0, 1::2, None] * z[2][None, :]
         return cls(disc, U1, U2, model.factor.backend)
 
     def displacement(self, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -109,7 +106,7 @@ class FieldRecovery:
         projected onto its scalar nodal basis: ``M s = int phi sigma(u) dx`` per component."""
         if body not in self._projector:  # one factorisation and one operator per body
             scalar = self.disc.scalar_bases[body]
-            strain = strain_operators(self.disc.bases[body])
+            strain = strain_operators(scalar)
             load = load_operator(scalar)
             self._projector[body] = (factorize(self.mass(body), self.backend),
                                      tuple((load @ B).tocsr() for B in strain))
@@ -125,19 +122,28 @@ class FieldRecovery:
         return [np.ascontiguousarray(S[:, :, j].T) for j in range(len(cols))]
 
 
-def strain_operators(basis) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
+def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
     """Sparse ``(Bxx, Byy, Bxy)`` with ``B @ u`` the strains ``eps_xx, eps_yy, eps_xy`` of the
-    vector dof vector u at the quadrature points (rows ``(e, k)`` as in :func:`load_operator`;
-    row ``(e, k)`` holds element e's dofs, built in CSR form directly)."""
-    n_el, n_qp = basis.dx.shape
-    n_loc = len(basis.basis)
-    dofs = np.asarray(basis.element_dofs).T  # (n_el, n_loc)
+    vector dof vector u (numbering :class:`fem.bulk.VectorDofs`) at the quadrature points of
+    the scalar basis (rows ``(e, k)`` as in :func:`load_operator`; row ``(e, k)`` holds element
+    e's vector dofs ``2 a + c`` in that order, the gradient of component c of vector shape
+    function ``(a, c)`` being scalar ``grad phi_a`` in row c; built in CSR form directly)."""
+    n_el, n_qp = scalar.dx.shape
+    vec = vector_dofs(scalar)
+    n_loc = vec.element_dofs.shape[0]
+    dofs = np.asarray(vec.element_dofs).T  # (n_el, n_loc)
     indices = np.broadcast_to(dofs[:, None, :], (n_el, n_qp, n_loc)).ravel()
     indptr = np.arange(0, n_el * n_qp * n_loc + 1, n_loc)
-    grads = np.stack([np.asarray(phi[0].grad) for phi in basis.basis], axis=-1)
+    sgrad = np.stack([np.asarray(phi[0].grad) for phi in scalar.basis], axis=-1)  # (2, e, q, a)
     out = []
-    for g in (grads[0, 0], grads[1, 1], 0.5 * (grads[0, 1] + grads[1, 0])):
-        B = csr_matrix((g.ravel(), indices.copy(), indptr.copy()), shape=(n_el * n_qp, basis.N))
+    for c, d in ((0, 0), (1, 1), (0, 1)):
+        g = np.zeros((n_el, n_qp, n_loc))
+        if c == d:  # eps_cc: d_c of component c
+            g[..., c::2] = sgrad[c]
+        else:  # eps_xy = (d_y u_x + d_x u_y) / 2
+            g[..., 0::2] = 0.5 * sgrad[1]
+            g[..., 1::2] = 0.5 * sgrad[0]
+        B = csr_matrix((g.ravel(), indices.copy(), indptr.copy()), shape=(n_el * n_qp, vec.N))
         B.eliminate_zeros()
         out.append(B)
     return tuple(out)

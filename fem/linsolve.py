@@ -23,14 +23,16 @@ BACKENDS = ("cholmod", "pypardiso", "scipy-splu")
 class Factor:
     """A factorised symmetric positive definite matrix; ``solve(B)`` accepts 1-D or 2-D B.
 
-    ``pair_solve(lam)``, when set (``fem.condense``), gives ``solve`` of the pair loads of the
-    pair forces ``lam`` (columns) by a cheaper route than a general solve.
+    ``pair_solve(lam, out=None, rows=None)``, when set (``fem.condense``), gives ``solve`` of
+    the pair loads of the pair forces ``lam`` (columns) by a cheaper route than a general
+    solve; with ``out`` it writes the solution's dof i into ``out[rows[i]]`` (and returns out)
+    instead of allocating it (the recovery fills the full-field array directly).
     """
 
     backend: str
     solve: Callable[[np.ndarray], np.ndarray]
     n: int
-    pair_solve: Callable[[np.ndarray], np.ndarray] | None = None
+    pair_solve: Callable[..., np.ndarray] | None = None
 
 
 def available_backends() -> tuple[str, ...]:

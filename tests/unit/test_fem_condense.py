@@ -94,6 +94,11 @@ def test_every_backend_has_a_pair_solve(backend):
     lam = np.random.default_rng(2).normal(size=(m, 3))
     ref = coupled_solve(K, f1, f2, lam)
     assert np.allclose(factor.pair_solve(lam), ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    rows = np.random.default_rng(4).permutation(K.shape[0] + 7)[: K.shape[0]]
+    out = np.full((K.shape[0] + 7, 3), 5.0)  # written in place: rows[i] gets dof i
+    assert factor.pair_solve(lam, out=out, rows=rows) is out
+    assert np.array_equal(out[rows], factor.pair_solve(lam))
+    assert np.all(np.delete(out, rows, axis=0) == 5.0)
 
 
 def test_recovered_fields_equal_a_coupled_solve_on_a_small_mesh():
@@ -190,8 +195,8 @@ def test_ring_mesh_bodies_share_one_factor_and_match_two_factorisations(monkeypa
     f1, f2 = cd.pair_dofs(disc, index, cand)
     K = reduced_stiffness(disc, free)
     calls = []
-    monkeypatch.setattr(cd, "body_compliance",
-                        lambda *a, f=cd.body_compliance: calls.append(1) or f(*a))
+    monkeypatch.setattr(cd, "body_factor",
+                        lambda *a, f=cd.body_factor: calls.append(1) or f(*a))
     one, C1 = condense(K, f1, f2, "cholmod")
     assert len(calls) == 1
     monkeypatch.setattr(cd, "mirror_signs", lambda *a: None)

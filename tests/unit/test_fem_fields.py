@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.sparse import csr_matrix
 from scipy.sparse.linalg import spsolve
-from skfem import LinearForm, asm
+from skfem import ElementVector, LinearForm, asm
 from skfem.helpers import sym_grad
 
 import fem
-from fem.bulk import discretise, mass_matrix
+from fem.bulk import ELEMENTS, discretise, mass_matrix
 from fem.fields import FieldRecovery
 from fem.mesh import build_mesh
 
@@ -20,7 +21,8 @@ def reference_stress(disc, body: int, u: np.ndarray) -> np.ndarray:
     """(sxx, syy, sxy, szz) projected with skfem's LinearForm and a sparse direct solve."""
     E, nu = disc.E, disc.nu
     lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
-    basis, scalar = disc.bases[body], disc.scalar_bases[body]
+    scalar = disc.scalar_bases[body]
+    basis = scalar.with_element(ElementVector(ELEMENTS[disc.order]()))
     M = mass_matrix(scalar).tocsc()
     out = []
     for comp in range(4):
@@ -50,3 +52,38 @@ def test_batched_stresses_equal_the_projection_of_each_increment(order):
         one = rec.body_stress(1, body)  # a single increment on its own
         ref = reference_stress(disc, body, U[body][:, 1])
         assert np.max(np.abs(one - ref)) <= 1e-10 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("boundary", ["clamped", "half-plane"])
+def test_vector_numbering_and_strains_equal_skfem_vector_basis(order, boundary):
+    """VectorDofs (no quadrature data) numbers, places and fixes the dofs exactly as skfem's
+    vector basis, and the strain operators from the scalar gradients equal those of the vector
+    basis entry for entry (same order: the recovered stresses do not change by a bit)."""
+    from fem.bulk import facets_on, outer_facets
+    from fem.fields import strain_operators
+
+    m = build_mesh(fem.MeshSpec(level=-2, order=order, layout="rings"), (-1.0, 1.0))
+    disc = discretise(m, order, 2.0, 0.3, boundary)
+    for body, name in ((0, "top"), (1, "bottom")):
+        scalar = disc.scalar_bases[body]
+        vec = scalar.with_element(ElementVector(ELEMENTS[order]()))
+        mine = disc.bases[body]
+        assert mine.N == vec.N
+        assert np.array_equal(mine.doflocs, vec.doflocs)
+        assert np.array_equal(mine.element_dofs, vec.element_dofs)
+        facets = (outer_facets(m.bodies[body]) if boundary == "half-plane"
+                  else facets_on(m.bodies[body], m.nodes[name]))
+        assert np.array_equal(disc.fixed[body], vec.get_dofs(facets).all())
+        n_el, n_qp = vec.dx.shape
+        grads = np.stack([np.asarray(phi[0].grad) for phi in vec.basis], axis=-1)
+        cols = np.broadcast_to(vec.element_dofs.T[:, None, :], grads.shape[2:]).ravel()
+        indptr = np.arange(0, cols.size + 1, grads.shape[-1])
+        for B, g in zip(strain_operators(scalar),
+                        (grads[0, 0], grads[1, 1], 0.5 * (grads[0, 1] + grads[1, 0])),
+                        strict=True):  # rows (e, k): element e's vector dofs in basis order
+            ref = csr_matrix((g.ravel(), cols.copy(), indptr.copy()), shape=(n_el * n_qp, vec.N))
+            ref.eliminate_zeros()
+            assert np.array_equal(B.indptr, ref.indptr)
+            assert np.array_equal(B.indices, ref.indices)
+            assert np.array_equal(B.data, ref.data)
