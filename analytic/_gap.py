@@ -1,8 +1,11 @@
 """The deformed gap ``g(x)`` outside the contact zones of a solved system.
 
 ``g(x) = h(x) - h(edge) + int_edge^x w'`` from the nearest edge on the same side of x, with
-``h = h0 - theta x`` and ``w'`` the surface displacement slope of :class:`analytic._sie.System`;
-``g = 0`` in the zones and ``+inf`` where the profile is undefined.
+``h = h0 - theta x`` and ``w'`` the surface displacement slope of :class:`analytic._sie.System`
+(h' subtracted in B only within one clearance of the edge, ``GAP_SUBTRACT_REACH``; the
+polynomial growth of the consistency residuals removed,
+:meth:`analytic._sie.Batch.residual_growth`); ``g = 0`` in the zones and ``+inf`` where the
+profile is undefined.
 """
 
 from __future__ import annotations

@@ -28,6 +28,12 @@ SUBTRACT_REACH = 2.0
 """Interconnection integrals subtract the edge piece's slope in B (near-singular at the edge)
 only up to this many widths of the edge's zone: farther, the zone rule (sized for points a
 clearance away) resolves ``B`` without it."""
+GAP_SUBTRACT_REACH = 0.0
+"""The deformed gap subtracts the edge piece's slope only on the first (Gauss-Jacobi) sub-interval,
+one clearance from the edge: beyond, ``H int_L omega/(s - x)`` carries the zone rule's error in
+the moments of omega (1e-8 when two zones are 2.7e-5 apart) times ``|W| ~ |x|^(e-n)``, and without
+H the zone rule already resolves B (audit seed 103644 vertically, g' vs the Cauchy integral of p,
+in A P: 3.6e-8 with H and 7.7e-10 without at one clearance; 2.8e-6 and 7.3e-10 at 18)."""
 GAP_CHUNK = 32  # targets per batch of gap integrals (a plan's maps are dense: parts x nodes)
 
 

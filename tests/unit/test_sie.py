@@ -199,3 +199,27 @@ def test_system_flat_punch_load_from_beta() -> None:
     x = np.array([-0.49, 0.0, 0.2])
     np.testing.assert_allclose(sys_.pressure_inside(x), P / (np.pi * np.sqrt(b**2 - x**2)),
                                rtol=1e-12)
+
+
+def test_residual_growth_is_the_polynomial_part_of_W_B() -> None:
+    """Off consistency (two cylinders' zones at arbitrary edges: mu_0, mu_1 not 0) ``W B/pi``
+    with H = 0 grows like x (e - n = 2); less the derivative of ``residual_growth`` it decays
+    like ``-(mu_2 + c_1 mu_1 + c_2 mu_0)/(pi x)`` (``W = x^2 sum c_k x^-k``), as the
+    displacement slope of a pressure must."""
+    prof = profiles.union(profiles.cylinder(1.0, center=-1.0), profiles.cylinder(1.3, center=1.2))
+    lay = Layout(np.array([-1.3, -0.6, 0.9, 1.6]), np.zeros(4, bool))
+    sys_ = System.build(lay, prof, 1.0, 0.0, 0.1, [])
+    mu = sys_.moments(2)
+    assert np.min(np.abs(mu[:2])) > 1e-3  # far from consistent: the growth is large
+    x = np.array([1e4, -1e4, 1e5])
+    F = sys_.W_real(x + sys_.xc) * sys_.B(x, np.zeros(3)) / np.pi
+    h = 1e-3 * np.abs(x)
+    grow = sys_.batch.residual_growth(np.concatenate([x + h, x - h])[None, :])[0]
+    slope = (grow[:3] - grow[3:]) / (2 * h)
+    assert np.max(np.abs(F)) > 10.0
+    c = series_coeffs(lay.edges - sys_.xc, lay.eps, 1.0, 2)
+    lead = -(mu[2] + c[1] * mu[1] + c[2] * mu[0]) / np.pi
+    assert (F - slope) * x == pytest.approx(np.full(3, lead), rel=1e-3)
+    flat = System.build(Layout(np.array([-1.0, 1.0]), np.array([True, True])),
+                        profiles.flat_punch(-1.0, 1.0), 1.0, 0.0, 0.0, [-1.0])
+    assert np.all(flat.batch.residual_growth(x[None, :]) == 0.0)  # e <= n: no growth
