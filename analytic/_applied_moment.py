@@ -311,16 +311,11 @@ def _from_level_face(profile: Profile, P: float, A: float, M: float, xe: float
     105672: 3.2 s, now 0.4 s; seed 104494: 3.1 s, now 0.2 s).  Only the guess is tried: on the
     wrong side of the solution (cylinders beside the punch taking the moment) the full solve at
     that rotation took minutes (audit seed 103644, theta_face = +0.085 for -0.045)."""
-    k = int(profile.piece_index(np.array([xe]))[0])
-    if k < 0:
-        return None
-    pc = profile.pieces[k]
+    pc = _flat_face(profile, xe)
     pins = profile.pin_points
-    if not (pc.flat and np.isfinite(pc.lo) and np.isfinite(pc.hi)) or (
-            pc.lo in pins and pc.hi in pins):
+    if pc is None or (pc.lo in pins and pc.hi in pins):
         return None
-    c, a = 0.5 * (pc.lo + pc.hi), 0.5 * (pc.hi - pc.lo)
-    theta = 2.0 * A * P * (xe - c) / (np.pi * a * a)
+    theta = _face_theta(pc, P, A, xe)
     if not profile.admits_tilt(theta):
         return None
     guess = solve_from_guess(profile, P, A, theta)
@@ -339,15 +334,11 @@ def _face_rotation(profile: Profile, P: float, A: float, xe: float) -> float | N
     sqrt(a^2 - s^2)) gives M - P c = pi a^2 theta / (2 A) (face centre c, half-width a). None
     where ``xe`` is not on such a face, the tilt is beyond the tilt limits, or the tilted
     profile is lowest elsewhere (another member touches first)."""
-    k = int(profile.piece_index(np.array([xe]))[0])
-    if k < 0:
-        return None
-    pc = profile.pieces[k]
+    pc = _flat_face(profile, xe)
     pins = profile.pin_points
-    if not (pc.flat and pc.lo in pins and pc.hi in pins and pc.lo < xe < pc.hi):
+    if pc is None or not (pc.lo in pins and pc.hi in pins and pc.lo < xe < pc.hi):
         return None
-    c, a = 0.5 * (pc.lo + pc.hi), 0.5 * (pc.hi - pc.lo)
-    theta = 2.0 * A * P * (xe - c) / (np.pi * a * a)
+    theta = _face_theta(pc, P, A, xe)
     if not profile.admits_tilt(theta):
         return None
     mins = profile.local_minima(theta)
@@ -355,3 +346,19 @@ def _face_rotation(profile: Profile, P: float, A: float, xe: float) -> float | N
     if lowest is None or not pc.lo <= 0.5 * (lowest[0] + lowest[1]) <= pc.hi:
         return None
     return theta
+
+
+def _flat_face(profile: Profile, xe: float):
+    """The flat profile piece of finite extent holding ``xe``, or None."""
+    k = int(profile.piece_index(np.array([xe]))[0])
+    if k < 0:
+        return None
+    pc = profile.pieces[k]
+    return pc if pc.flat and np.isfinite(pc.lo) and np.isfinite(pc.hi) else None
+
+
+def _face_theta(pc, P: float, A: float, xe: float) -> float:
+    """The rotation of the face ``pc`` carrying the whole load about ``xe``: M - P c = pi a^2
+    theta / (2 A) (centre c, half-width a; :func:`_face_rotation`)."""
+    c, a = 0.5 * (pc.lo + pc.hi), 0.5 * (pc.hi - pc.lo)
+    return 2.0 * A * P * (xe - c) / (np.pi * a * a)
