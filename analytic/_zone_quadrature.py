@@ -100,12 +100,10 @@ def squad_plan(layout: Layout, profile: Profile) -> SquadPlan:
         a, b = el[2 * k], el[2 * k + 1]
         inner = [q for q in marks if a < q < b]
         close = _close_neighbours(el, k, max(np.diff([a, *inner, b])))
-        before, after = ([anchors[i]] if i in anchors else [el[j]] if j is not None else []
-                         for i, j in ((2 * k, close[0]), (2 * k + 1, close[1])))
+        before, i_before = _beyond(2 * k, close[0], anchors, where, el)
+        after, i_after = _beyond(2 * k + 1, close[1], anchors, where, el)
         cuts = [*before, a, *inner, b, *after]
-        idx = ([where[q] for q in before] if 2 * k in anchors else [close[0]] if before else [])
-        idx += [2 * k] + [where[q] for q in inner] + [2 * k + 1]
-        idx += [where[q] for q in after] if 2 * k + 1 in anchors else [close[1]] if after else []
+        idx = [*i_before, 2 * k, *(where[q] for q in inner), 2 * k + 1, *i_after]
         for i in range(len(before), len(cuts) - len(after) - 1):
             base = min(_segment_clearance(el, k, cuts[i], cuts[i + 1], close, clearance[k]),
                        _kink_clearance(cuts[i], cuts[i + 1], a, b))
@@ -266,12 +264,24 @@ def zone_clearances(edges: list[float]) -> list[float]:
             for k in range(n)]
 
 
+def _beyond(i: int, neighbour: int | None, anchors: dict[int, float], where: dict[float, int],
+            edges: list[float]) -> tuple[list[float], list[int]]:
+    """The cut beyond edge i that its segment is graded towards, as ``([x], [index into
+    [edges, kinks]])``: the vertical end just beyond it (:func:`_vertical_anchors`), else the
+    close neighbour's facing edge (:func:`_close_neighbours`); ``([], [])`` when neither."""
+    if i in anchors:
+        return [anchors[i]], [where[anchors[i]]]
+    if neighbour is not None:
+        return [edges[neighbour]], [neighbour]
+    return [], []
+
+
 def _close_neighbours(edges: list[float], k: int, longest: float) -> tuple[int | None, int | None]:
     """Per side of zone k, the index of the neighbouring zone's facing edge when it is too close
     for one rule (:func:`analytic._rules.capped` on the zone's longest segment), else None: the
     zone's segment is then graded towards that edge like towards a kink with a close cut beyond
     (audit seed 106705: two zones 0.42 and 0.45 wide, 1.4e-5 apart across a ridge, capped at
-    MAX_NODES, put the rigid approach 2e-8 A P and the zone loads 7e-9 P off)."""
+    MAX_NODES, put the rigid approach 2e-8 A P and the zone loads 6e-9 P off)."""
     n = len(edges) // 2
     left = 2 * k - 1 if k > 0 and _graded_gap(longest, edges[2 * k] - edges[2 * k - 1]) else None
     right = (2 * k + 2 if k + 1 < n and _graded_gap(longest, edges[2 * k + 2] - edges[2 * k + 1])
