@@ -214,6 +214,29 @@ class Reference:
     opn: np.ndarray
     lu: tuple
     columns: dict = field(default_factory=dict)
+    last: tuple | None = None  # (J, row kinds of J, A[J] W) of the last update
+
+    def capacitance(self, AJ: np.ndarray, W: np.ndarray, J: np.ndarray,
+                    kinds: np.ndarray) -> np.ndarray:
+        """``A[J] W``, reusing the entries of the last update whose row (index and kind) and
+        column are both in it: successive Newton systems change a few rows of J, so the
+        ``O(r^2 N)`` product shrinks to ``O(dr r N)`` (cattaneo level 6: 40 of 105 s)."""
+        S = None
+        if self.last is not None:
+            lJ, lk, lS = self.last
+            at = np.searchsorted(lJ, J).clip(max=lJ.size - 1)
+            col = np.where(lJ[at] == J, at, -1)
+            row = np.where((col >= 0) & (lk[col] == kinds), col, -1)
+            rr, cc = row >= 0, col >= 0
+            if rr.any() and cc.any():
+                S = np.empty((J.size, J.size))
+                S[np.ix_(rr, cc)] = lS[np.ix_(row[rr], col[cc])]
+                S[~rr] = AJ[~rr] @ W
+                S[np.ix_(rr, ~cc)] = AJ[rr] @ W[:, ~cc]
+        if S is None:
+            S = AJ @ W
+        self.last = (J, kinds, S)
+        return S
 
     def solve(self, prob: InterfaceProblem, B: np.ndarray) -> np.ndarray:
         """``A0^{-1} B`` by block back-substitution (B: (N,) or (N, k))."""
@@ -280,7 +303,8 @@ class ActiveSetSolver:
         AJ = rows(prob, sets, J)
         cap = (
             checked_lu(
-                AJ @ W, f"singular active-set system ({np.count_nonzero(sets.status)} active pairs)"
+                ref.capacitance(AJ, W, J, sets.kinds(prob.n_plate)[J]),
+                f"singular active-set system ({np.count_nonzero(sets.status)} active pairs)",
             )
             if J.size
             else None

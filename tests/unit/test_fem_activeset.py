@@ -82,3 +82,29 @@ def test_singular_system_raises_not_converged():
     assert np.linalg.matrix_rank(A) < A.shape[0]
     with pytest.raises(NotConverged, match="singular"):
         ActiveSetSolver(prob).solve(sets, np.ones(2 * 20 + 3))
+
+
+def test_capacitance_reuses_entries_of_the_last_update():
+    """A[J] W from the last update's entries where row (index and kind) and column match,
+    the rest computed: equal to the full product, whichever rows changed kind."""
+    from fem.activeset import factor_reference
+
+    n = 40
+    prob = problem(n, lock_theta=True)
+    status = np.full(n, OPEN, np.int8)
+    status[10:30] = STICK
+    ref = factor_reference(prob, make_sets(status, np.ones(n)))
+    for k, (lo, hi, slip) in enumerate(((8, 30, 0), (8, 32, 2), (6, 32, 4), (6, 33, 4))):
+        st = np.full(n, OPEN, np.int8)
+        st[lo:hi] = STICK
+        st[lo : lo + slip] = SLIP
+        sets = make_sets(st, -np.ones(n))
+        J = np.flatnonzero(ref.kinds != sets.kinds(prob.n_plate))
+        W, AJ = ref.block(prob, J), rows(prob, sets, J)
+        reused = ref.last is not None and np.isin(J, ref.last[0]).any()
+        S = ref.capacitance(AJ, W, J, sets.kinds(prob.n_plate)[J])
+        assert reused == (k > 0)
+        assert np.allclose(S, AJ @ W, rtol=0, atol=1e-13 * np.abs(AJ @ W).max())
+    lJ, lk, lS = ref.last
+    ref.last = (lJ, lk, lS + 1.0)  # the same J and kinds again: every entry comes from the cache
+    assert np.array_equal(ref.capacitance(AJ, W, J, sets.kinds(prob.n_plate)[J]), lS + 1.0)
