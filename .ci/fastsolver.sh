@@ -60,8 +60,21 @@ install() {
   fi
 }
 
+blas() {  # the BLAS library CHOLMOD resolves (a slow reference BLAS is named as such)
+  local so lib
+  so=$("$py" -c "import sksparse.cholmod as c; print(c.__file__)" 2>/dev/null) || return 0
+  lib=$(ldd "$so" 2>/dev/null | awk '/libblas\.so/ {print $3; exit}')
+  [ -n "$lib" ] || return 0
+  lib=$(readlink -f "$lib")
+  case "$lib" in
+    *openblas*) echo ", BLAS: OpenBLAS ($lib)" ;;
+    */blas/libblas*) echo ", BLAS: the slow reference BLAS ($lib; Debian: libopenblas0-serial)" ;;
+    *) echo ", BLAS: $lib" ;;
+  esac
+}
+
 check() {
-  imports && { echo "multicontact: sparse backend: CHOLMOD (scikit-sparse)"; return 0; }
+  imports && { echo "multicontact: sparse backend: CHOLMOD (scikit-sparse)$(blas)"; return 0; }
   bar="======================================================================================"
   echo "$bar"
   echo "multicontact: the fast sparse solver (CHOLMOD, scikit-sparse) is NOT available."

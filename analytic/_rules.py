@@ -43,6 +43,13 @@ def nodes_for(length: float, clearance: float) -> int:
     return int(min(MAX_NODES, 8 * math.ceil(n / 8)))
 
 
+def capped(length: float, clearance: float) -> bool:
+    """Whether :func:`nodes_for` would need more than MAX_NODES (length / clearance above
+    ~1.9e3): one rule on the interval is then under-resolved and must be graded instead."""
+    ratio = float(length) / max(float(clearance), 1e-300)
+    return not BASE_NODES + 14.0 * math.sqrt(min(ratio, 1e300)) <= MAX_NODES
+
+
 GRADING = 4.0
 
 

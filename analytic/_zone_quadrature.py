@@ -23,6 +23,7 @@ from analytic._layout import Layout, sign_exponent, sign_from_d, w_abs, zone_sig
 from analytic._rules import (
     BASE_NODES,
     GRADING,
+    capped,
     graded_rule,
     jacobi_rule,
     mapped_rule,
@@ -31,6 +32,10 @@ from analytic._rules import (
 )
 from analytic.profiles import Profile
 
+CLOSE_FLOOR = 1e-12
+"""A neighbouring zone is graded towards (:func:`_close_neighbours`) only when the gap is at least
+this fraction of the segment: at most ~19 graded panels (~1100 nodes); narrower gaps, and
+crossed zones of a trial step, keep the one capped rule."""
 KINK_ZONE = 0.25  # points this close to a kink (fraction of its pieces) get graded rules
 KINK_ULPS = 64.0  # the graded rules start this many ulps of the kink away from it
 
@@ -93,13 +98,15 @@ def squad_plan(layout: Layout, profile: Profile) -> SquadPlan:
     segments, mids = [], []
     for k in range(len(el) // 2):
         a, b = el[2 * k], el[2 * k + 1]
-        before = [anchors[2 * k]] if 2 * k in anchors else []
-        after = [anchors[2 * k + 1]] if 2 * k + 1 in anchors else []
-        cuts = [*before, a, *[q for q in marks if a < q < b], b, *after]
-        idx = [where[q] for q in before] + [2 * k] + [where[q] for q in cuts[len(before) + 1:
-               len(cuts) - len(after) - 1]] + [2 * k + 1] + [where[q] for q in after]
+        inner = [q for q in marks if a < q < b]
+        close = _close_neighbours(el, k, max(np.diff([a, *inner, b])))
+        before, i_before = _beyond(2 * k, close[0], anchors, where, el)
+        after, i_after = _beyond(2 * k + 1, close[1], anchors, where, el)
+        cuts = [*before, a, *inner, b, *after]
+        idx = [*i_before, 2 * k, *(where[q] for q in inner), 2 * k + 1, *i_after]
         for i in range(len(before), len(cuts) - len(after) - 1):
-            base = min(clearance[k], _kink_clearance(cuts[i], cuts[i + 1], a, b))
+            base = min(_segment_clearance(el, k, cuts[i], cuts[i + 1], close, clearance[k]),
+                       _kink_clearance(cuts[i], cuts[i + 1], a, b))
             for panel, lo, hi in _graded_panels(cuts, idx, i, base):
                 segments.append((k, *panel))
                 mids.append(0.5 * (lo + hi))
@@ -255,6 +262,57 @@ def zone_clearances(edges: list[float]) -> list[float]:
     return [min(edges[2 * k] - edges[2 * k - 1] if k > 0 else math.inf,
                 edges[2 * k + 2] - edges[2 * k + 1] if k + 1 < n else math.inf)
             for k in range(n)]
+
+
+def _beyond(i: int, neighbour: int | None, anchors: dict[int, float], where: dict[float, int],
+            edges: list[float]) -> tuple[list[float], list[int]]:
+    """The cut beyond edge i that its segment is graded towards, as ``([x], [index into
+    [edges, kinks]])``: the vertical end just beyond it (:func:`_vertical_anchors`), else the
+    close neighbour's facing edge (:func:`_close_neighbours`); ``([], [])`` when neither."""
+    if i in anchors:
+        return [anchors[i]], [where[anchors[i]]]
+    if neighbour is not None:
+        return [edges[neighbour]], [neighbour]
+    return [], []
+
+
+def _close_neighbours(edges: list[float], k: int, longest: float) -> tuple[int | None, int | None]:
+    """Per side of zone k, the index of the neighbouring zone's facing edge when it is too close
+    for one rule (:func:`analytic._rules.capped` on the zone's longest segment), else None: the
+    zone's segment is then graded towards that edge like towards a kink with a close cut beyond
+    (audit seed 106705: two zones 0.42 and 0.45 wide, 1.4e-5 apart across a ridge, capped at
+    MAX_NODES, put the rigid approach 2e-8 A P and the zone loads 6e-9 P off)."""
+    n = len(edges) // 2
+    left = 2 * k - 1 if k > 0 and _graded_gap(longest, edges[2 * k] - edges[2 * k - 1]) else None
+    right = (2 * k + 2 if k + 1 < n and _graded_gap(longest, edges[2 * k + 2] - edges[2 * k + 1])
+             else None)
+    return left, right
+
+
+def _graded_gap(longest: float, gap: float) -> bool:
+    """A gap graded towards: one rule would be capped, and the gap is at least CLOSE_FLOOR of
+    the segment (crossed or touching zones of a rejected Newton step keep the capped rule)."""
+    return CLOSE_FLOOR * longest < gap and capped(longest, gap)
+
+
+def _segment_clearance(edges: list[float], k: int, lo: float, hi: float,
+                       close: tuple[int | None, int | None], clearance: float) -> float:
+    """Distance from segment ``[lo, hi]`` of zone k to the neighbouring zones: the zone's
+    clearance, unless a neighbour is graded towards (:func:`_close_neighbours`); on that side
+    its distance from the segment (none for the segment at its edge: the graded panels are
+    sized on it)."""
+    if close == (None, None):
+        return clearance
+    a, b = edges[2 * k], edges[2 * k + 1]
+    n = len(edges) // 2
+    out = math.inf
+    if k > 0:
+        gap = a - edges[2 * k - 1]
+        out = min(out, gap if close[0] is None else math.inf if lo == a else gap + lo - a)
+    if k + 1 < n:
+        gap = edges[2 * k + 2] - b
+        out = min(out, gap if close[1] is None else math.inf if hi == b else gap + b - hi)
+    return out
 
 
 def _kink_clearance(lo: float, hi: float, a: float, b: float) -> float:

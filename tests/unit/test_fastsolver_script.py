@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -69,3 +70,15 @@ def test_failed_build_retried_only_when_a_prerequisite_changes(tmp_path) -> None
     os.utime(include / "Python.h", (st.st_atime, st.st_mtime + 10))  # headers reinstalled
     run("install", py)
     assert pip_calls(calls) == 2
+
+
+def test_check_names_the_blas_under_cholmod() -> None:
+    """The closing line names the BLAS library CHOLMOD resolves, and calls Debian's reference
+    BLAS slow (it made the level-6 history 2.3x longer, README)."""
+    pytest.importorskip("sksparse.cholmod")
+    if shutil.which("ldd") is None:
+        pytest.skip("needs ldd")
+    line = run("check", Path(sys.executable))
+    assert line.startswith("multicontact: sparse backend: CHOLMOD (scikit-sparse), BLAS: ")
+    if "/blas/libblas" in line:
+        assert "slow reference BLAS" in line and "libopenblas0-serial" in line

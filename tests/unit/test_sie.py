@@ -19,6 +19,7 @@ from analytic import profiles
 from analytic._layout import sign_exponent, sign_from_d, w_abs
 from analytic._rules import BASE_NODES, MAX_NODES, jacobi_rule, mapped_rule, nodes_for
 from analytic._sie import Layout, System, series_coeffs
+from analytic._zone_quadrature import squad_nodes, squad_plan
 
 ROUNDOFF = 1e-13
 """Relative tolerance for exact quadrature / algebra in double precision (a few ulps x n)."""
@@ -223,3 +224,31 @@ def test_residual_growth_is_the_polynomial_part_of_W_B() -> None:
     flat = System.build(Layout(np.array([-1.0, 1.0]), np.array([True, True])),
                         profiles.flat_punch(-1.0, 1.0), 1.0, 0.0, 0.0, [-1.0])
     assert np.all(flat.batch.residual_growth(x[None, :]) == 0.0)  # e <= n: no growth
+
+
+@pytest.mark.parametrize("gap", [1e-4, 1.4e-5, 1e-7, 1e-10])
+def test_zone_rule_resolves_omega_next_to_a_close_zone(gap: float) -> None:
+    """Two free-edged zones 0.9 and 0.8 wide, ``gap`` apart: ``W ~ z^2 (1 + w1/z + ...)``, so
+    ``int_L s^j omega ds = pi (0, 1, -w1)`` for j = 0, 1, 2 (the coefficients of 1/W at
+    infinity).  The facing edge's factor varies on the scale of the gap; the zone rule is
+    graded towards it beyond MAX_NODES (one capped rule per zone: 1.2e-6 of int |omega| off at
+    gap 1.4e-5, 3e-3 at 1e-7)."""
+    edges = np.array([-0.9, -0.5 * gap, 0.5 * gap, 0.8])
+    lay = Layout(edges, np.zeros(4, bool))
+    prof = profiles.cylinder(R=1.0)
+    plan = squad_plan(lay, prof)
+    assert max(plan.counts) < MAX_NODES
+    q = squad_nodes(plan, prof, edges[None, :], 0.0, np.zeros(1))
+    s, om, scale = q.s[0], q.Omega[0], q.absOmega[0].sum()
+    w1 = -float(edges @ lay.eps)
+    moments = np.array([np.sum(om), np.sum(s * om), np.sum(s * s * om)])
+    assert np.all(np.abs(moments - np.pi * np.array([0.0, 1.0, -w1])) < 1e-12 * scale)
+
+
+@pytest.mark.parametrize("gap", [0.0, -1e-3])
+def test_zone_rule_of_touching_or_crossed_zones_stays_one_rule(gap: float) -> None:
+    """A trial step can leave two zones touching or crossed: no grading (it would never reach
+    the edge), one capped rule per zone, as before."""
+    edges = np.array([-0.9, -0.5 * gap, 0.5 * gap, 0.8])
+    plan = squad_plan(Layout(edges, np.zeros(4, bool)), profiles.cylinder(R=1.0))
+    assert plan.counts == (MAX_NODES, MAX_NODES)
