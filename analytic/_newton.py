@@ -39,6 +39,13 @@ STALL_GAIN = 0.05           # rounding floor) reduce the residual by less than t
                             # 1983 solves of 274 audit cases: converging ones reduced it by
                             # >= 26 % over any 8 steps, 177 of 290 failing ones crawled at
                             # < 5 % for 10-40 steps (0.2-1 s each; issue 29)
+WALL_HALVINGS = 4           # a line search that halved this often to stay feasible (an edge
+WALL_STEPS = 6              # at a ridge it may not cross) this many steps in a row, gaining
+                            # < STALL_GAIN in all, fails (audit seed 103644, theta = 0: an
+                            # edge crawled onto the ridge 2.0049 for 20-37 iterations, 0.5-1.1 s,
+                            # before "no descent"). 1110 converging solves of audit seeds
+                            # 0-299 took at most 5 such steps in a row, then escaped with an
+                            # uncut step and converged (3 would cut those of 9 seeds)
 
 
 @dataclass(frozen=True)
@@ -250,6 +257,7 @@ def newton(st: State, mode: Mode, profile: Profile, A: float) -> tuple[State, np
         and st.jac_notches == mode.notches else None
     fresh, polish, floor = False, 0, FLOOR_TOL
     crawl: list[float] = []  # the residual before each accepted step above the floor
+    wall: list[float] = []  # ... before each step in a row cut by the feasible set
     for it in range(NEWTON_MAXIT):
         if norm < NEWTON_TOL:
             dz = _polish_step(J, F) if polish < POLISH_STEPS else None
@@ -272,7 +280,8 @@ def newton(st: State, mode: Mode, profile: Profile, A: float) -> tuple[State, np
         if not (polish or fresh) and chord is None:
             J = None  # stale Jacobian: refresh and retry from the same point
             continue
-        trial, zt, Ft, nt = chord or _line_search(st, z, dz, norm, mode, profile, A)
+        trial, zt, Ft, nt, cut = chord + (0,) if chord else _line_search(st, z, dz, norm, mode,
+                                                                         profile, A)
         if polish and not nt < NEWTON_TOL:
             break  # the polishing step would leave the converged set: keep the state
         if not polish and nt > 0.5 * norm and np.all(np.abs(F) < floor):
@@ -280,6 +289,7 @@ def newton(st: State, mode: Mode, profile: Profile, A: float) -> tuple[State, np
         if nt >= norm and not np.all(np.abs(Ft) < floor):
             raise NewtonFailed("no descent", {"residual": norm, "iteration": it})
         _check_stall(crawl, norm, nt, F, floor, it)
+        _check_wall(wall, cut, norm, nt, F, floor, it)
         step = zt - z
         if step @ step > 0:  # Broyden's rank-one update keeps the reused Jacobian current
             J = J + np.outer(Ft - F - J @ step, step) / (step @ step)
@@ -309,6 +319,22 @@ def _check_stall(crawl: list[float], norm: float, nt: float, F: np.ndarray,
     if len(crawl) >= STALL_STEPS and nt > (1.0 - STALL_GAIN) * crawl[-STALL_STEPS]:
         raise NewtonFailed("stalled", {"residual": nt, "iteration": it,
                                        "residual_steps_before": crawl[-STALL_STEPS]})
+
+
+def _check_wall(wall: list[float], cut: int, norm: float, nt: float, F: np.ndarray,
+                floor: np.ndarray | float, it: int) -> None:
+    """Record a step from ``norm`` to ``nt`` whose line search halved ``cut`` times to stay
+    feasible; raise :class:`NewtonFailed` when the last WALL_STEPS steps were each cut at
+    least WALL_HALVINGS times and reduced the residual by less than STALL_GAIN in all (Newton
+    pushes an edge onto a ridge or corner it may not cross and crawls along it); not at the
+    rounding floor (as :func:`_check_stall`)."""
+    if cut < WALL_HALVINGS or np.all(np.abs(F) < floor):
+        wall.clear()
+        return
+    wall.append(norm)
+    if len(wall) >= WALL_STEPS and nt > (1.0 - STALL_GAIN) * wall[-WALL_STEPS]:
+        raise NewtonFailed("against the feasible set", {"residual": nt, "iteration": it,
+                                                        "residual_steps_before": wall[-WALL_STEPS]})
 
 
 def _rounding_floor(J: np.ndarray, st: State, mode: Mode) -> np.ndarray:
@@ -458,7 +484,9 @@ def _chord_step(st, z, dz, norm, mode, profile, A):
 
 
 def _line_search(st, z, dz, norm, mode, profile, A):
-    lam = 1.0
+    """Backtracking from the full step: the accepted ``(state, z, F, norm)`` and how many
+    halvings were for feasibility (trial points outside the feasible set)."""
+    lam, cut = 1.0, 0
     for _ in range(30):
         zt = z + lam * dz
         trial = _unpack(zt, st, mode, A)
@@ -466,6 +494,8 @@ def _line_search(st, z, dz, norm, mode, profile, A):
             Ft, trial.system = residual(trial, mode, profile, A)
             nt = float(np.max(np.abs(Ft)))
             if np.isfinite(nt) and (nt < (1 - 1e-4 * lam) * norm or nt < NEWTON_TOL):
-                return trial, zt, Ft, nt
+                return trial, zt, Ft, nt, cut
+        else:
+            cut += 1
         lam *= 0.5
-    return st, z, residual(st, mode, profile, A)[0], norm
+    return st, z, residual(st, mode, profile, A)[0], norm, cut

@@ -269,13 +269,20 @@ class Batch:
         out = np.zeros(x.shape)
         if q <= 0:
             return out
-        mu = self.moments(q - 1)
-        for k, (e, m) in enumerate(zip(self.edges - self.xc, mu, strict=True)):
-            c = series_coeffs(e, self.layout.eps, 1.0, q - 1)
-            coef = np.convolve(c, m)[:q]  # coefficient of x^(q-1-i), i = k + j < q
+        for k, coef in enumerate(self._growth_coefs):
             for i, a in enumerate(coef):
                 out[k] += a * x[k] ** (q - i) / (q - i)
         return -out / np.pi
+
+    @cached_property
+    def _growth_coefs(self) -> list[np.ndarray]:
+        """Per member, the coefficient of ``x^(e-n-1-i)`` in the residuals' part of ``W B/pi``
+        (``i = k + j < e - n``, see :meth:`residual_growth`): computed once per batch, as the
+        deformed gap is evaluated point by point (a walk over an overlap, ~50 calls)."""
+        q = self.layout.e - self.layout.n
+        mu = self.moments(q - 1)
+        return [np.convolve(series_coeffs(e, self.layout.eps, 1.0, q - 1), m)[:q]
+                for e, m in zip(self.edges - self.xc, mu, strict=True)]
 
     def gap_sums(self, plan: GapPlan, x_to: np.ndarray) -> np.ndarray:
         """``int g'`` ``(K, parts)`` from each planned edge to ``x_to (K, parts)`` (the graded

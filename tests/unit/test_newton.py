@@ -28,9 +28,10 @@ def _state(edges, P: float, theta: float) -> _newton.State:
 
 def test_newton_on_a_topology_without_a_solution_fails_as_stalled() -> None:
     """It crawled at a residual of 59.28 until NEWTON_MAXIT (0.34 s); now it stops once
-    STALL_STEPS steps gained less than STALL_GAIN in all."""
+    STALL_STEPS steps gained less than STALL_GAIN in all (iteration 18), or sooner once
+    WALL_STEPS of them in a row were cut by the feasible set (iteration 14)."""
     st = _state([-3.20221, -3.02466, 2.78643, 2.79297], P_836, THETA_836)
-    with pytest.raises(_newton.NewtonFailed, match="stalled") as err:
+    with pytest.raises(_newton.NewtonFailed, match="stalled|against the feasible set") as err:
         _newton.newton(st, _newton.Mode(P_836, None), make_case(100836).profile, 1.0)
     diag = err.value.diag
     assert diag["iteration"] < _newton.NEWTON_MAXIT
@@ -53,6 +54,39 @@ def test_a_converging_crawl_is_not_a_stall() -> None:
     crawl[:] = [1.0] * (_newton.STALL_STEPS - 1)
     _newton._check_stall(crawl, 1.0, 1.0, np.full(1, 1e-12), 1e-10, 0)
     assert crawl == []
+
+
+def test_newton_pushing_an_edge_onto_a_ridge_fails_against_the_feasible_set() -> None:
+    """Audit seed 103644 at theta = 0 (three zones where a fourth is due beyond the ridge
+    2.0049): Newton drives the cylinder zone's left edge onto that ridge, every line search
+    halving to stay feasible; it crawled there until "stalled" at iteration 18 (others of
+    its kind until "no descent" at 22-35, 0.5-1.1 s each); now it stops after WALL_STEPS such
+    steps in a row (iteration 14)."""
+    prof, P = make_case(103644).profile, 0.412613
+    st = _state([-0.9718218, 0.9590648, 2.0118573, 2.2303611, 2.2304811, 2.578672], P, 0.0)
+    with pytest.raises(_newton.NewtonFailed, match="against the feasible set") as err:
+        _newton.newton(st, _newton.Mode(P, None), prof, 1.0)
+    diag = err.value.diag
+    assert diag["iteration"] < 18
+    assert diag["residual"] > (1 - _newton.STALL_GAIN) * diag["residual_steps_before"]
+
+
+def test_only_steps_cut_by_the_feasible_set_count_towards_the_wall() -> None:
+    """A step halved fewer than WALL_HALVINGS times for feasibility, or at the rounding floor,
+    restarts the count; WALL_STEPS cut steps gaining less than STALL_GAIN fail, more pass."""
+    wall: list[float] = []
+    F, cut = np.ones(1), _newton.WALL_HALVINGS
+    for k in range(3 * _newton.WALL_STEPS):  # 10 % per step: converging along a wall
+        _newton._check_wall(wall, cut, 0.9**k, 0.9 ** (k + 1), F, 1e-10, k)
+    wall[:] = [1.0] * (_newton.WALL_STEPS - 1)
+    _newton._check_wall(wall, cut - 1, 1.0, 1.0, F, 1e-10, 0)
+    assert wall == []
+    wall[:] = [1.0] * (_newton.WALL_STEPS - 1)
+    _newton._check_wall(wall, cut, 1.0, 1.0, np.full(1, 1e-12), 1e-10, 0)
+    assert wall == []
+    with pytest.raises(_newton.NewtonFailed, match="against the feasible set"):
+        for k in range(_newton.WALL_STEPS):
+            _newton._check_wall(wall, cut, 1.0 - 1e-3 * k, 1.0 - 1e-3 * (k + 1), F, 1e-10, k)
 
 
 def test_chord_step_is_taken_only_when_it_gains_the_refresh_factor() -> None:
