@@ -34,20 +34,25 @@ def mapped_rule(lo: float, hi: float, alpha_lo: float, alpha_hi: float, n: int):
     return 0.5 * (lo + hi) + half * t, w * half ** (1.0 + alpha_lo + alpha_hi)
 
 
-def nodes_for(length: float, clearance: float) -> int:
-    """Quadrature size for an interval whose nearest outside singularity is ``clearance`` away."""
+def _wanted_nodes(length: float, clearance: float) -> float:
+    """Uncapped quadrature size for an interval whose nearest outside singularity is
+    ``clearance`` away (inf when the clearance vanishes against the length)."""
     ratio = float(length) / max(float(clearance), 1e-300)
     if not ratio < 1e300:
-        return MAX_NODES
-    n = BASE_NODES + 14.0 * math.sqrt(max(ratio, 0.0))
-    return int(min(MAX_NODES, 8 * math.ceil(n / 8)))
+        return math.inf
+    return BASE_NODES + 14.0 * math.sqrt(max(ratio, 0.0))
+
+
+def nodes_for(length: float, clearance: float) -> int:
+    """Quadrature size for an interval whose nearest outside singularity is ``clearance`` away."""
+    n = _wanted_nodes(length, clearance)
+    return MAX_NODES if math.isinf(n) else int(min(MAX_NODES, 8 * math.ceil(n / 8)))
 
 
 def capped(length: float, clearance: float) -> bool:
     """Whether :func:`nodes_for` would need more than MAX_NODES (length / clearance above
     ~1.9e3): one rule on the interval is then under-resolved and must be graded instead."""
-    ratio = float(length) / max(float(clearance), 1e-300)
-    return not BASE_NODES + 14.0 * math.sqrt(min(ratio, 1e300)) <= MAX_NODES
+    return not _wanted_nodes(length, clearance) <= MAX_NODES
 
 
 GRADING = 4.0
