@@ -7,8 +7,7 @@ polynomial T of the inversion formula and, in applied-moment mode, the rigid rot
 conditions (Eq. 12/14), equilibrium, the rigid interconnections (Eq. 17) and the moment, each
 scaled; :func:`newton` solves them by damped Newton with a finite-difference Jacobian evaluated
 in one batch, reused between continuation steps (Broyden updates), and accepts a residual at
-the rounding floor of the edges' positions once the consistency conditions also hold in
-physical units (CONSISTENCY_TOL: the closed-form load and moment assume them).
+the rounding floor of the edges' positions.
 """
 
 from __future__ import annotations
@@ -349,7 +348,7 @@ def _settle_consistency(st: State, z: np.ndarray, F: np.ndarray, J: np.ndarray |
     search cannot: its merit, the largest scaled row, is then another row's rounding, e.g. the
     moment's at seed 100836); :class:`NewtonFailed` if that does not meet it."""
     error = _consistency_error(st, mode, profile, A)
-    if np.all(error < CONSISTENCY_TOL):
+    if not np.any(error >= CONSISTENCY_TOL):
         return st, F, J
     m, J_in = error.size, J
     for step in range(CONSISTENCY_STEPS + 1):
