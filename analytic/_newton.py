@@ -312,13 +312,7 @@ def _check_stall(crawl: list[float], norm: float, nt: float, F: np.ndarray,
     last STALL_STEPS steps above the rounding floor reduced the residual by less than
     STALL_GAIN in all (a topology without a solution nearby: Newton crawls until
     NEWTON_MAXIT, refreshing its Jacobian at every step)."""
-    if np.all(np.abs(F) < floor):
-        crawl.clear()
-        return
-    crawl.append(norm)
-    if len(crawl) >= STALL_STEPS and nt > (1.0 - STALL_GAIN) * crawl[-STALL_STEPS]:
-        raise NewtonFailed("stalled", {"residual": nt, "iteration": it,
-                                       "residual_steps_before": crawl[-STALL_STEPS]})
+    _record_crawl(crawl, not np.all(np.abs(F) < floor), norm, nt, STALL_STEPS, "stalled", it)
 
 
 def _check_wall(wall: list[float], cut: int, norm: float, nt: float, F: np.ndarray,
@@ -328,13 +322,22 @@ def _check_wall(wall: list[float], cut: int, norm: float, nt: float, F: np.ndarr
     least WALL_HALVINGS times and reduced the residual by less than STALL_GAIN in all (Newton
     pushes an edge onto a ridge or corner it may not cross and crawls along it); not at the
     rounding floor (as :func:`_check_stall`)."""
-    if cut < WALL_HALVINGS or np.all(np.abs(F) < floor):
-        wall.clear()
+    counts = cut >= WALL_HALVINGS and not np.all(np.abs(F) < floor)
+    _record_crawl(wall, counts, norm, nt, WALL_STEPS, "against the feasible set", it)
+
+
+def _record_crawl(log: list[float], counts: bool, norm: float, nt: float, steps: int,
+                  reason: str, it: int) -> None:
+    """Append ``norm`` to ``log`` for a step that counts (else start the log again); raise
+    :class:`NewtonFailed` (``reason``) when the last ``steps`` counted steps in a row reduced
+    the residual by less than STALL_GAIN in all."""
+    if not counts:
+        log.clear()
         return
-    wall.append(norm)
-    if len(wall) >= WALL_STEPS and nt > (1.0 - STALL_GAIN) * wall[-WALL_STEPS]:
-        raise NewtonFailed("against the feasible set", {"residual": nt, "iteration": it,
-                                                        "residual_steps_before": wall[-WALL_STEPS]})
+    log.append(norm)
+    if len(log) >= steps and nt > (1.0 - STALL_GAIN) * log[-steps]:
+        raise NewtonFailed(reason, {"residual": nt, "iteration": it,
+                                    "residual_steps_before": log[-steps]})
 
 
 def _rounding_floor(J: np.ndarray, st: State, mode: Mode) -> np.ndarray:
