@@ -298,12 +298,13 @@ class ActiveSetSolver:
     def solve(self, sets: Sets, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Solution x of the full system of ``sets`` and d = C lam + B z (open lam set to 0)."""
         prob = self.prob
-        ref, J = self.reference(sets)
+        kinds = sets.kinds(prob.n_plate)
+        ref, J = self.reference(sets, kinds)
         W = ref.block(prob, J)
         AJ = rows(prob, sets, J)
         cap = (
             checked_lu(
-                ref.capacitance(AJ, W, J, sets.kinds(prob.n_plate)[J]),
+                ref.capacitance(AJ, W, J, kinds[J]),
                 f"singular active-set system ({np.count_nonzero(sets.status)} active pairs)",
             )
             if J.size
@@ -326,10 +327,10 @@ class ActiveSetSolver:
         self.updates += int(cap is not None)
         return x, relative_displacement(prob, x)
 
-    def reference(self, sets: Sets) -> tuple[Reference, np.ndarray]:
-        """The pool reference nearest to ``sets`` and the rows J that differ; a new reference
-        (replacing the least recently used) if the rank would exceed the refactor limit."""
-        kinds = sets.kinds(self.prob.n_plate)
+    def reference(self, sets: Sets, kinds: np.ndarray) -> tuple[Reference, np.ndarray]:
+        """The pool reference nearest to ``sets`` (row kinds ``kinds``) and the rows J that
+        differ; a new reference (replacing the least recently used) if the rank would exceed the
+        refactor limit."""
         best, J = None, None
         for ref in self.pool:
             diff = np.flatnonzero(ref.kinds != kinds)
