@@ -35,17 +35,17 @@ from analytic.errors import ConvergenceError
 from analytic.profiles import Profile
 
 LOAD_TOL = 1e-8
-"""|int p - reported| per zone and in total, relative to P (unchanged by issue 29: not
-tightened).  Measured worst over the fast suite: 5.2e-9, the double wedge of 0.01 / 0.02 rad
-at P = 0.5 (tests/verification/test_stress_closed_forms.py), two zones 12.6 wide and 6.4e-3
-apart across the ridge at 0, where the zone rule sits at its node cap (MAX_NODES; the audit's
-quadrature agrees, 6e-9): a margin of only 1.9.  Over the solves of 20 analytic test files of
-the fast suite, the 16 library cases, the audit regression list (87 seeds, 9 cases) and audit
-seeds 0-599 and 100000-100299 (2281 checks) with EDGE_ROUNDING < 1e-12: 4.3e-10 (a
-circular-cornered punch pinned at its arcs' vertical ends), 4.4e-11 elsewhere; tabulated
-splines, with the zone rule cut at their knots, 6.4e-12 (SPLINE_FACTOR, 100 times this on
-splines, is gone).  The wrong answers of issue 13 were off by 1e-6 .. 6e-4, the splines before
-the knot cuts by 6.5e-8."""
+"""|int p - reported| per zone and in total, relative to P (unchanged by issue 29: not tightened).
+Measured worst over the fast suite: 5.2e-9, the double wedge of 0.01 / 0.02 rad at P = 0.5
+(tests/verification/test_stress_closed_forms.py), two zones 12.6 wide and 6.4e-3 apart across
+the ridge at 0 (not the zone rule's node count: 608 nodes, and 2-4 times as many leave
+5.0-5.2e-9; cause not found; the audit's quadrature agrees, 6e-9): a margin of only 1.9.  Over
+the solves of 20 analytic test files of the fast suite, the 16 library cases, the audit
+regression list (87 seeds, 9 cases) and audit seeds 0-599 and 100000-100299 (2281 checks) with
+EDGE_ROUNDING < 1e-12: 4.3e-10 (a circular-cornered punch pinned at its arcs' vertical ends),
+4.4e-11 elsewhere; tabulated splines, with the zone rule cut at their knots, 6.4e-12
+(SPLINE_FACTOR, 100 times this on splines, is gone). The wrong answers of issue 13 were off by
+1e-6 .. 6e-4, the splines before the knot cuts by 6.5e-8."""
 MOMENT_TOL = 1e-9
 """|int x p - M| relative to P times the largest |x| of an edge (the load's lever arm).
 Measured worst 3.4e-11 (audit seed 100153): a margin of 30."""
