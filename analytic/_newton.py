@@ -313,9 +313,11 @@ def newton(st: State, mode: Mode, profile: Profile, A: float) -> tuple[State, np
     return st, F
 
 
-def _consistency_error(st: State, mode: Mode, profile: Profile, A: float) -> np.ndarray:
+def _consistency_error(st: State, mode: Mode, profile: Profile,
+                       A: float) -> tuple[np.ndarray, np.ndarray]:
     """The consistency residuals (paper Eq. 12) of ``st`` in physical units,
-    ``|mu_j| ell^(e-n) / (A P)`` (empty without consistency conditions).
+    ``|mu_j| ell^(e-n) / (A P)``, and the absolute sums that scale Newton's rows in the same
+    units (both empty without consistency conditions).
 
     The load and the moment are closed forms (:meth:`analytic._sie.Batch.load_and_moment`) that
     hold once consistency holds: ``A P`` is the integral of the monic degree-(e - n)
@@ -328,19 +330,12 @@ def _consistency_error(st: State, mode: Mode, profile: Profile, A: float) -> np.
     100797, 100836), so rows at FLOOR_TOL's 1e-11 left 2.6e-9 and 2.1e-8 there."""
     lay = st.layout
     if lay.e <= lay.n:
-        return np.zeros(0)
-    return np.abs(_system(st, profile, A).batch.consistency()[0][0]) \
-        * _consistency_units(st, mode, profile, A, 1.0)
-
-
-def _consistency_units(st: State, mode: Mode, profile: Profile, A: float,
-                       norm: np.ndarray | float | None = None) -> np.ndarray:
-    """``ell^(e-n) / (A P)`` times ``norm`` (default: the rows' absolute sums, which turns the
-    scaled consistency rows into :func:`_consistency_error`'s units)."""
-    if norm is None:
-        norm = _system(st, profile, A).batch.consistency()[1][0] + 1e-300
+        return np.zeros(0), np.zeros(0)
+    mu, sums = _system(st, profile, A).batch.consistency()
     P_ref = mode.P if mode.P is not None else max(abs(st.P), 1e-300)
-    return norm * st.ell ** (st.layout.e - st.layout.n) / (A * P_ref)
+    k = lay.e - lay.n
+    error = np.abs(mu[0]) * (st.ell ** k / (A * P_ref))
+    return error, (sums[0] + 1e-300) * st.ell ** k / (A * P_ref)
 
 
 def _system(st: State, profile: Profile, A: float) -> System:
@@ -361,14 +356,13 @@ def _settle_consistency(st: State, z: np.ndarray, F: np.ndarray, J: np.ndarray |
     (never worse): the self-check (analytic.selfcheck) judges it as before, so this polishes
     and never refuses (refusing put four of issue 29's wedge cases, tiny zones at their first
     touch, out of reach)."""
-    error = _consistency_error(st, mode, profile, A)
+    error, sums = _consistency_error(st, mode, profile, A)
     if np.all(error < CONSISTENCY_TOL):
         return st, F, J
     m, J_in = error.size, J
     for step in range(CONSISTENCY_STEPS + 1):
         J = _jacobian(z, F, st, mode, profile, A)
-        one_ulp = (np.abs(J[:m]) @ _edge_ulps(st, mode, J.shape[1])) \
-            * _consistency_units(st, mode, profile, A)
+        one_ulp = (np.abs(J[:m]) @ _edge_ulps(st, mode, J.shape[1])) * sums
         if np.all(error < np.maximum(CONSISTENCY_TOL, one_ulp)) or step == CONSISTENCY_STEPS:
             break
         try:
@@ -379,10 +373,10 @@ def _settle_consistency(st: State, z: np.ndarray, F: np.ndarray, J: np.ndarray |
         if not feasible(trial, profile):
             break
         Ft, trial.system = residual(trial, mode, profile, A)
-        et = _consistency_error(trial, mode, profile, A)
+        et, st_sums = _consistency_error(trial, mode, profile, A)
         if not (np.all(np.abs(Ft) < floor) and et.max() < error.max()):
             break
-        st, z, F, error = trial, zt, Ft, et
+        st, z, F, error, sums = trial, zt, Ft, et, st_sums
     return st, F, J if step else J_in  # unmoved: the Jacobian it came with (bit-identical)
 
 
