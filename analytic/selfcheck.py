@@ -34,21 +34,21 @@ import numpy as np
 from analytic.errors import ConvergenceError
 from analytic.profiles import Profile
 
-LOAD_TOL = 1e-8
-"""|int p - reported| per zone and in total, relative to P (unchanged by issue 29: not tightened).
-Measured worst over the fast suite: 5.2e-9, the double wedge of 0.01 / 0.02 rad at P = 0.5
-(tests/verification/test_stress_closed_forms.py), two zones 12.6 wide and 6.4e-3 apart across
-the ridge at 0 (not the zone rule's node count: 608 nodes, and 2-4 times as many leave
-5.0-5.2e-9; cause not found; the audit's quadrature agrees, 6e-9): a margin of only 1.9.  Over
-the solves of 20 analytic test files of the fast suite, the 16 library cases, the audit
-regression list (87 seeds, 9 cases) and audit seeds 0-599 and 100000-100299 (2281 checks) with
-EDGE_ROUNDING < 1e-12: 4.3e-10 (a circular-cornered punch pinned at its arcs' vertical ends),
-4.4e-11 elsewhere; tabulated splines, with the zone rule cut at their knots, 6.4e-12
-(SPLINE_FACTOR, 100 times this on splines, is gone). The wrong answers of issue 13 were off by
-1e-6 .. 6e-4, the splines before the knot cuts by 6.5e-8."""
+LOAD_TOL = 2e-9
+"""|int p - reported| per zone and in total, relative to P.  Measured worst 4.3e-10: a
+circular-cornered punch whose free edges lie 2e-8 short of its arcs' vertical ends
+(tests/verification/test_corner_end.py), a margin of 4.6; 1.1e-10 on the next (a tilted sharp
+punch beside a cylinder), <= 4.4e-11 on the rest.  Measured over the solves of the analytic
+test files of the fast suite (785 checks with EDGE_ROUNDING < 1e-12), the 16 library cases, the
+audit regression list and audit seeds 0-599 and 100000-100299 (927 solves).  It was 1e-8 until
+the double wedge of 0.01 / 0.02 rad at P = 0.5 (two zones 12.6 wide, 6.4e-3 apart across the
+ridge) stopped reaching 5.2e-9: the local pressure rule beside its apexes and the zone loads'
+contour rule now resolve the close neighbour (analytic._zone_quadrature.NEIGHBOUR_REACH,
+analytic._contour.CONTOUR_MAX; 9.4e-12 now).  The wrong answers of issue 13 were off by 1e-6 ..
+6e-4, tabulated splines before their knot cuts by 6.5e-8."""
 MOMENT_TOL = 1e-9
 """|int x p - M| relative to P times the largest |x| of an edge (the load's lever arm).
-Measured worst 3.4e-11 (audit seed 100153): a margin of 30."""
+Measured worst 4.3e-11 (audit seed 386; 3.4e-11 on seed 100153): a margin of 23."""
 APPROACH_TOL = 2e-8
 """Spread of delta over all targets, relative to A P.  Measured worst 1.4e-9 where
 HEIGHT_ROUNDING adds < 2e-10 (audit seed 515, a parabolic punch beside cylinders), 6.4e-10 on
