@@ -393,7 +393,7 @@ def vertical_end_rule(lay: Layout, sq: SQuad, xc: float, x: np.ndarray, end: flo
     skip = np.zeros(edges.size, bool)
     lo_, hi_ = sorted((cut, end + side * L))
     if i_cut.size:
-        s_far, w_far = _edge_half(lay, int(i_cut[0]), -side, L)
+        s_far, w_far = _edge_half(lay, int(i_cut[0]), side, L)
         skip[i_cut[0]] = True
     else:
         s_far, w_far = mapped_rule(lo_, hi_, 0.0, 0.0, BASE_NODES)

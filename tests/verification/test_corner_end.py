@@ -19,6 +19,7 @@ from scipy.integrate import quad
 
 import analytic
 from analytic import profiles
+from compare.audit import checks
 from compare.bem import solve_normal_bem
 
 A = 1.0
@@ -142,3 +143,19 @@ def test_bem_agrees_in_complete_contact(punch) -> None:
     inner = np.abs(bem.x) < 1.3
     p = sol.pressure(bem.x[inner])
     assert np.max(np.abs(bem.p[inner] - p)) <= BEM_PRESSURE_REL * p.max()
+
+
+@pytest.mark.parametrize(("theta", "P"), [(8.0, 5.0), (16.0, 10.0)])
+def test_tilted_zone_on_the_arc_alone_pinned_at_its_end(punch, theta, P) -> None:
+    """Tilted steeply, the zone lies on the right arc alone (no kink inside) and is pinned at
+    its end: the local rule near that end takes its far half up to the zone's free edge, whose
+    edge weight it carried at the wrong end of that half (the self-check refused these with
+    int p 9 % and 4.5 % off).  The audit's independent quadratures and the BEM agree."""
+    sol = analytic.solve_normal_fixed_rotation(punch, P, A, theta)
+    (a, b), = sol.zones
+    assert 1.0 < a < B and b == B and sol.singular == [(False, True)]
+    assert sol.residuals["selfcheck_load"] < 1e-9
+    assert not [f.line() for f in checks.quadrature_findings(sol) if f.failed]
+    bem = solve_normal_bem(lambda x: punch.h0(x) - theta * x, (0.9, 1.6), 600, P, A)
+    (lo, hi), = bem.zones
+    assert abs(lo - a) < 2 * (0.7 / 600) and abs(hi - b) < 2 * (0.7 / 600)
