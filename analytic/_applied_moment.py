@@ -61,27 +61,41 @@ class _Rotations:
         self.solved: dict[float, tuple[State, System, float]] = {}
         self.failed: list[tuple[float, float]] = []  # (from, to) of failed warm starts
         self.joined: set[tuple] = set()  # topologies the joint Newton started from
+        self.no_guess: set[float] = set()  # rotations where Newton from the guess failed
 
-    def at(self, theta: float) -> tuple[State, System, float] | None:
+    def at(self, theta: float, full: bool = True) -> tuple[State, System, float] | None:
         """``(state, system, moment)`` at ``theta``, or None where the solve fails or the body
-        tips (h0 - theta x flat or falling out to infinity)."""
+        tips (h0 - theta x flat or falling out to infinity).  Without ``full`` only the cheap
+        starts are tried (the warm start and the overlap guess), not the continuation from the
+        first touch."""
         theta = float(theta)
         if theta in self.solved:
             return self.solved[theta]
         if not self.profile.admits_tilt(theta):
             return None
-        solvers = [lambda: self._warm(theta),
-                   lambda: solve_from_guess(self.profile, self.P, self.A, theta)]
+        solvers = [lambda: self._warm(theta), lambda: self._guess(theta)]
         if self._straddles(theta):
             solvers.reverse()
         try:
             found = next((r for r in (f() for f in solvers) if r is not None), None)
+            if found is None and not full:
+                return None
             st, sys_ = found or solve_from_first_touch(self.profile, self.P, self.A, theta)
         except ConvergenceError:
             return None
         out = (st, sys_, sys_.load_and_moment()[1])
         self.solved[theta] = out
         return out
+
+    def _guess(self, theta: float) -> tuple[State, System] | None:
+        """Newton from the overlap guess at ``theta`` (:func:`solve_from_guess`), tried once
+        per rotation (it depends on nothing else)."""
+        if theta in self.no_guess:
+            return None
+        found = solve_from_guess(self.profile, self.P, self.A, theta)
+        if found is None:
+            self.no_guess.add(theta)
+        return found
 
     def _warm(self, theta: float) -> tuple[State, System] | None:
         for t in self._starts(theta):
@@ -177,6 +191,7 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[S
     theta0 = _initial_rotation(profile, xe)
     scale = abs(theta0) + A * P / profile.scale + 1e-12
     rot = _Rotations(profile, P, A)
+    theta0 = _cheap_start(rot, M, theta0, 0.25 * scale)
     direct = _newton_from(rot, theta0, M)
     if direct is not None:
         return direct
@@ -196,6 +211,20 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[S
     if abs(sys_.load_and_moment()[1] - M) <= 1e-10 * P * st.ell:
         return st, sys_
     raise ConvergenceError(f"moment polish failed: {failed}", {"theta": theta}) from failed
+
+
+def _cheap_start(rot: _Rotations, M: float, theta0: float, step: float) -> float:
+    """The rotation of the search's first full solve: ``theta0`` where the overlap guess
+    solves there or solves at neither ``theta0 -+ step`` (the bracket's first steps); else,
+    where it solves at one of them and the moment there asks for a rotation towards ``theta0``,
+    the midpoint between the two (the guess's state is kept for warm starts)."""
+    if rot.at(theta0, full=False) is not None:
+        return theta0
+    for t in (theta0 - step, theta0 + step):
+        probe = rot.at(t, full=False)
+        if probe is not None and (probe[2] - M) * (t - theta0) > 0:
+            return 0.5 * (t + theta0)
+    return theta0
 
 
 def _joint_at(rot: _Rotations, theta: float, M: float) -> None:
