@@ -223,7 +223,10 @@ def _cheap_start(rot: _Rotations, M: float, theta0: float, step: float) -> float
     can cross the births of zones beside ridges: audit seed 103644 at theta = 0 (a rounded punch
     beside two cylinders) took 6 s of the search's 11.6 s there and the joint Newton from it
     failed (2 s); the guess solves at -0.196 (0.02 s), the warm start at -0.098 (0.3 s) and the
-    joint Newton from there converges to -0.04458 (0.6 s)."""
+    joint Newton from there converges to -0.04458 (0.6 s).  A probe whose guess fails costs
+    that guess (0.01-0.26 s: audit seed 110057, 0.8 -> 1.0 s); one that solves is a state the
+    bracket reaches anyway.  The guess is not capped to its own topology: audit seed 100834's
+    probe needed a topology event (0.1 -> 0.25 s capped, 0.08 s not)."""
     if rot.at(theta0, full=False) is not None:
         return theta0
     for t in (theta0 - step, theta0 + step):
