@@ -3,13 +3,15 @@
 The fixed-rotation problem is the vertical-indentation problem of the tilted profile
 ``h0(x) - theta x``; its moment grows monotonically with theta.  We first try Newton on all
 unknowns (edges and theta, with the topology events) from the fixed-rotation solution at the
-initial rotation (or from a cheaper start beside it, :func:`_cheap_start`); where that fails
+initial rotation (or from cheaper starts beside it, :func:`_search_starts`); where that fails
 we bracket theta with fixed-rotation solves, refine it with
 Brent's method, then polish all unknowns together with Newton so that the moment equation
 holds to the solver tolerance.
 """
 
 from __future__ import annotations
+
+from collections.abc import Iterator
 
 import numpy as np
 from scipy.optimize import brentq
@@ -87,6 +89,15 @@ class _Rotations:
         out = (st, sys_, sys_.load_and_moment()[1])
         self.solved[theta] = out
         return out
+
+    def warm(self, theta: float) -> tuple[State, System, float] | None:
+        """:meth:`at` by the warm start only (Newton from the nearest solved rotations)."""
+        theta = float(theta)
+        if theta not in self.solved and self.profile.admits_tilt(theta):
+            found = self._warm(theta)
+            if found is not None:
+                self.solved[theta] = (*found, found[1].load_and_moment()[1])
+        return self.solved.get(theta)
 
     def _guess(self, theta: float) -> tuple[State, System] | None:
         """Newton from the overlap guess at ``theta`` (:func:`solve_from_guess`), tried once
@@ -192,12 +203,13 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[S
     theta0 = _initial_rotation(profile, xe)
     scale = abs(theta0) + A * P / profile.scale + 1e-12
     rot = _Rotations(profile, P, A)
-    theta0 = _cheap_start(rot, M, theta0, 0.25 * scale)
-    direct = _newton_from(rot, theta0, M)
-    if direct is not None:
-        return direct
+    start = theta0
+    for start, changes in _search_starts(rot, M, theta0, 0.25 * scale):
+        direct = _newton_from(rot, start, M, changes)
+        if direct is not None:
+            return direct
     try:
-        (t_lo, t_hi), _ = _bracket(rot, M, theta0, 0.25 * scale)
+        (t_lo, t_hi), _ = _bracket(rot, M, start, 0.25 * scale)
         theta = _root(rot, M, t_lo, t_hi, THETA_COARSE * scale)
     except _Found as found:
         return found.result
@@ -214,27 +226,33 @@ def solve_with_moment(profile: Profile, P: float, A: float, M: float) -> tuple[S
     raise ConvergenceError(f"moment polish failed: {failed}", {"theta": theta}) from failed
 
 
-def _cheap_start(rot: _Rotations, M: float, theta0: float, step: float) -> float:
-    """The rotation the search starts from: ``theta0`` where the overlap guess solves there;
-    else, where it solves at one of the bracket's first steps ``theta0 -+ step`` and the moment
-    there asks for a rotation towards ``theta0``, the midpoint between the two if the
-    fixed-rotation solve there succeeds (a warm start from the guess's state first); else
-    ``theta0``.  The full solve at ``theta0`` is the continuation from the first touch, which
-    can cross the births of zones beside ridges: audit seed 103644 at theta = 0 (a rounded punch
-    beside two cylinders) took 6 s of the search's 11.6 s there and the joint Newton from it
-    failed (2 s); the guess solves at -0.196 (0.02 s), the warm start at -0.098 (0.3 s) and the
-    joint Newton from there converges to -0.04458 (0.6 s).  A probe whose guess fails costs
-    that guess (0.01-0.26 s: audit seed 110057, 0.8 -> 1.0 s); one that solves is a state the
-    bracket reaches anyway.  The guess is not capped to its own topology: audit seed 100834's
-    probe needed a topology event (0.1 -> 0.25 s capped, 0.08 s not)."""
-    if rot.at(theta0, full=False) is not None:
-        return theta0
-    for t in (theta0 - step, theta0 + step):
-        probe = rot.at(t, full=False)
-        if probe is not None and (probe[2] - M) * (t - theta0) > 0:
-            mid = 0.5 * (t + theta0)
-            return mid if rot.at(mid) is not None else theta0
-    return theta0
+def _search_starts(rot: _Rotations, M: float, theta0: float, step: float
+                   ) -> Iterator[tuple[float, int]]:
+    """The rotations the joint Newton starts from in turn, with its number of Newton solves
+    (:func:`_newton_from`); the last one is the bracket's start.  Just ``theta0`` where the
+    overlap guess solves there.  Else, where the guess solves at one of the bracket's first
+    steps ``t = theta0 -+ step`` and the moment there asks for a rotation towards ``theta0``:
+    ``t`` (one Newton solve, no topology event), then the midpoint between ``t`` and
+    ``theta0`` if the warm start from ``t`` solves it, else ``theta0``.  The full solve at
+    ``theta0`` is the continuation from the first touch, which can cross the births of zones
+    beside ridges: audit seed 103644 at theta = 0 (a rounded punch beside two cylinders) took
+    6 s of the search's 11.6 s, and the joint Newton from it failed (2 s); the guess solves at
+    -0.196 (0.02 s), the warm start at -0.098 (0.3 s) and the joint Newton from there converges
+    to -0.04458 (0.6 s).  On audit seed 102166 the joint Newton from ``t`` converges (2.1 ->
+    0.5 s).  A warm start at the midpoint that fails costs up to 0.5 s (audit seed 104766:
+    0.7 -> 1.2 s); with the topology events the joint Newton from ``t`` failed after 0.8 s
+    there, and the guess and the continuation at the midpoint took 2.7 s."""
+    if rot.at(theta0, full=False) is None:
+        for t in (theta0 - step, theta0 + step):
+            probe = rot.at(t, full=False)
+            if probe is not None and (probe[2] - M) * (t - theta0) > 0:
+                yield t, 1
+                mid = 0.5 * (t + theta0)
+                if rot.warm(mid) is not None:
+                    yield mid, MAX_TOPOLOGY_CHANGES
+                    return
+                break
+    yield theta0, MAX_TOPOLOGY_CHANGES
 
 
 def _joint_at(rot: _Rotations, theta: float, M: float) -> None:

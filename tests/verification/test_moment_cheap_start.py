@@ -1,13 +1,14 @@
-"""Moment mode's first full solve (analytic._applied_moment._cheap_start), issue 29.
+"""Where moment mode's search starts (analytic._applied_moment._search_starts), issue 29.
 
 Audit seed 103644 (a rounded punch beside two cylinders, ridges of the union at 2.0049 and
 2.2304, the load centre on the punch's flat face): the overlap guess fails at the initial
 rotation theta = 0, where the untilted union's continuation from the first touch crowds both
 notches (6 s of the 11.6 s the search took), but solves at the bracket's first step below,
--0.196, whose moment asks for a larger rotation.  The first full solve is then at their midpoint,
--0.098 (a warm start from -0.196), and the joint Newton converges from there to -0.04458: no
-continuation from the first touch at all.  The result is judged by the audit's independent
-quadratures of the returned pressure (loads, moment, rigid approach, p >= 0, gap >= 0).
+-0.196, whose moment asks for a larger rotation.  The joint Newton from there (one solve, no
+topology event) fails; the warm start at their midpoint, -0.098, solves, and the joint Newton
+converges from there to -0.04458: no continuation from the first touch at all.  The result is
+judged by the audit's independent quadratures of the returned pressure (loads, moment, rigid
+approach, p >= 0, gap >= 0).
 """
 
 from __future__ import annotations
@@ -52,10 +53,10 @@ def test_no_continuation_from_the_first_touch(case, monkeypatch) -> None:
     assert not [f.line() for f in checks.quadrature_findings(sol) if f.failed]
 
 
-def test_first_full_solve_between_the_guess_and_the_initial_rotation(case) -> None:
+def test_the_search_starts_between_the_guess_and_the_initial_rotation(case) -> None:
     rot = _applied_moment._Rotations(case.profile, case.P, case.A)
     step = 0.25 * (case.A * case.P / case.profile.scale + 1e-12)  # the bracket's first step
-    theta = _applied_moment._cheap_start(rot, case.M, 0.0, step)
-    assert theta == pytest.approx(-0.5 * step, rel=1e-12)
-    assert 0.0 in rot.no_guess and list(rot.solved) == [-step, theta]  # no solve at 0
+    starts = list(_applied_moment._search_starts(rot, case.M, 0.0, step))
+    assert starts == [(-step, 1), (-0.5 * step, _applied_moment.MAX_TOPOLOGY_CHANGES)]
+    assert 0.0 in rot.no_guess and sorted(rot.solved) == [-step, -0.5 * step]  # none at 0
     assert rot.solved[-step][2] < case.M  # the moment there asks for a larger rotation
