@@ -238,9 +238,9 @@ def _search_starts(rot: _Rotations, M: float, theta0: float, step: float
     beside ridges: audit seed 103644 at theta = 0 (a rounded punch beside two cylinders) took
     6 s of the search's 11.6 s, and the joint Newton from it failed (2 s); the guess solves at
     -0.196 (0.02 s), the warm start at -0.098 (0.3 s) and the joint Newton from there converges
-    to -0.04458 (0.6 s).  On audit seed 102166 the joint Newton from ``t`` converges (2.1 ->
-    0.5 s).  A warm start at the midpoint that fails costs up to 0.5 s (audit seed 104766:
-    0.7 -> 1.2 s); with the topology events the joint Newton from ``t`` failed after 0.8 s
+    to -0.04458 (0.6 s).  On audit seed 102166 the joint Newton from ``t`` converges (1.8 ->
+    0.4 s).  A warm start at the midpoint that fails costs up to 0.5 s (audit seed 104766:
+    0.96 -> 1.41 s); with the topology events the joint Newton from ``t`` failed after 0.8 s
     there, and the guess and the continuation at the midpoint took 2.7 s."""
     if rot.at(theta0, full=False) is None:
         for t in (theta0 - step, theta0 + step):
