@@ -130,8 +130,9 @@ def _solution_findings(normal, stick, n_bem: int) -> list[checks.Finding]:
                       for f in checks.quadrature_findings(red)]
     try:
         found += _bem_verdict(normal, stick, n_bem)
-    except (RuntimeError, ValueError) as err:
-        found.append(checks.Finding("bem_unresolved", 1.0, 0.0, f"BEM failed: {err}"))
+    except (RuntimeError, ValueError, MemoryError) as err:  # the referee, not the solver
+        found.append(checks.Finding("bem_unresolved", 1.0, 0.0,
+                                    f"BEM failed: {type(err).__name__}: {err}"))
     return found
 
 
@@ -172,8 +173,9 @@ def _error_findings(case: AuditCase, err: Exception) -> list[checks.Finding]:
         return [checks.Finding("input_error", 1.0, 0.0, message)]
     try:
         ref = _reference_bem(case)
-    except (RuntimeError, ValueError) as bem_err:
-        return [checks.Finding("no_reference", 1.0, 0.0, f"{message}; BEM: {bem_err}")]
+    except (RuntimeError, ValueError, MemoryError) as bem_err:
+        return [checks.Finding("no_reference", 1.0, 0.0,
+                               f"{message}; BEM: {type(bem_err).__name__}: {bem_err}")]
     return [checks.Finding("convergence_error", 1.0, 0.0,
                            f"{message}; BEM (N={ref.grid.n}) finds zones {ref.zones}")]
 

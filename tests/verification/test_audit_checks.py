@@ -222,6 +222,31 @@ def test_a_solver_error_without_a_reference_is_inconclusive(monkeypatch) -> None
     assert result.classes == ("no_reference",) and not result.disagrees
 
 
+def test_a_referee_out_of_memory_is_inconclusive_not_a_crash(monkeypatch) -> None:
+    """The BEM's dense influence matrix can exhaust a worker's address space (seed 112231 at
+    N = 16384 crashed a whole audit): the case is then inconclusive, like a BEM that cycles."""
+    monkeypatch.setattr(bem, "solve_normal_bem", _raise(MemoryError("Unable to allocate")))
+    result = run.audit_case(cases.make_case(2))
+    assert result.classes == ("bem_unresolved",) and not result.disagrees
+    assert "MemoryError" in result.findings[0]
+    monkeypatch.setattr(analytic, "solve_normal", _raise(analytic.ConvergenceError("stalled")))
+    assert run.audit_case(cases.make_case(2)).classes == ("no_reference",)
+
+
+def test_the_bem_gap_sums_the_active_columns_only() -> None:
+    """``_normal_gap`` forms K p with p zero off the active set, not a copy of K's active
+    columns: the same gap as the copy to rounding."""
+    grid = bem.Grid(-1.0, 1.0, 64)
+    K = grid.influence(1.0)
+    active = np.abs(grid.x) < 0.5
+    p = np.where(active, 1.0 + grid.x**2, 0.0)
+    h = grid.x**2
+    g = bem._normal_gap(K, grid.x, h, p, active, 0.1, 0.02)
+    ref = h - 0.02 * grid.x - 0.1 + K[:, active] @ p[active]
+    assert np.all(g[active] == 0.0)
+    assert np.allclose(g[~active], ref[~active], rtol=0.0, atol=1e-14 * np.abs(ref).max())
+
+
 def test_the_summary_judges_the_solve_time_targets() -> None:
     def case(cpu: float) -> run.CaseResult:
         return run.CaseResult(0, "c", "f", "vertical", (), (), cpu, cpu, 0.0)
