@@ -40,6 +40,7 @@ from scipy.sparse.csgraph import connected_components
 from .bulk import Discretisation
 from .errors import ConvergenceError
 from .linsolve import Factor, available_backends, factorize
+from .supernodal import trailing_block
 
 #: Right-hand sides per blocked solve (memory vs BLAS-3 efficiency).
 RHS_BLOCK = 256
@@ -166,7 +167,7 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
             continue
         chol, perm = body_factor(Kb, local)
         del Kb
-        Cb, packed = trailing_compliance(chol, local.size)
+        Cb, packed = trailing_compliance(chol, idx.size, local.size)
         parts.append((idx, perm, chol, packed, None))
         C = Cb if C is None else np.add(C, Cb, out=C)
         del Cb
@@ -260,12 +261,17 @@ def body_factor(Kb: sp.csc_matrix, gamma: np.ndarray):
     return cholesky(Kb[perm][:, perm].tocsc(), ordering_method="natural"), perm
 
 
-def trailing_compliance(chol, m: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(C_b, packed)`` from a body's factor with its m pair dofs last: ``C_b =
+def trailing_compliance(chol, n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(C_b, packed)`` from a body's factor (n x n) with its m pair dofs last: ``C_b =
     (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing factor block ``L22``
     (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and ``L22`` itself
-    packed (lower, LAPACK ``trttp``) for the recovery's backward solves."""
-    L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
+    packed (lower, LAPACK ``trttp``) for the recovery's backward solves.  ``L22`` is read in
+    place from the supernodal factor (``fem.supernodal``); only a factor that module cannot
+    read goes through ``chol.L()``, a converted copy of the whole factor (level 6's peak
+    memory before issue 28)."""
+    L22 = trailing_block(chol, n, m)
+    if L22 is None:
+        L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
     packed, info = dtrttp(L22, uplo="L")
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK trttp failed (info={info})")
