@@ -238,7 +238,9 @@ def test_reduced_bodies_are_the_blocks_of_the_reduced_stiffness_bit_for_bit():
     assert K[:n1][:, n1:].nnz == 0
 
 
-def test_condense_bodies_gives_the_numbers_of_condense_on_the_whole_stiffness(monkeypatch):
+def ring_pairs_with_a_condense_spy(monkeypatch):
+    """``(disc, free, f1, f2, calls)`` of a small ring mesh; ``calls`` grows by one per call
+    of ``fem.condense.condense`` (the whole-K path)."""
     import fem.condense as cd
 
     disc, free, index = ring_discretisation()
@@ -246,6 +248,13 @@ def test_condense_bodies_gives_the_numbers_of_condense_on_the_whole_stiffness(mo
     f1, f2 = cd.pair_dofs(disc, index, cand)
     calls = []
     monkeypatch.setattr(cd, "condense", lambda *a, f=cd.condense: calls.append(1) or f(*a))
+    return disc, free, f1, f2, calls
+
+
+def test_condense_bodies_gives_the_numbers_of_condense_on_the_whole_stiffness(monkeypatch):
+    import fem.condense as cd
+
+    disc, free, f1, f2, calls = ring_pairs_with_a_condense_spy(monkeypatch)
     factor, C = cd.condense_bodies(disc, free, f1, f2, "cholmod")
     assert calls == []  # the bodies went straight to the per-body factors
     ref_factor, ref_C = condense(reduced_stiffness(disc, free), f1, f2, "cholmod")
@@ -259,11 +268,7 @@ def test_condense_bodies_gives_the_numbers_of_condense_on_the_whole_stiffness(mo
 def test_condense_bodies_falls_back_to_the_whole_stiffness_off_cholmod(monkeypatch):
     import fem.condense as cd
 
-    disc, free, index = ring_discretisation()
-    cand = np.flatnonzero(np.abs(disc.interface.x) <= 0.3)
-    f1, f2 = cd.pair_dofs(disc, index, cand)
-    calls = []
-    monkeypatch.setattr(cd, "condense", lambda *a, f=cd.condense: calls.append(1) or f(*a))
+    disc, free, f1, f2, calls = ring_pairs_with_a_condense_spy(monkeypatch)
     _, C = cd.condense_bodies(disc, free, f1, f2, "scipy-splu")
     assert calls == [1]
     _, ref = cd.condense(reduced_stiffness(disc, free), f1, f2, "cholmod")
