@@ -232,9 +232,11 @@ def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarra
     L22, info = dtpttr(m, packed, uplo="L")
     if info != 0:
         raise ConvergenceError(f"recovery: LAPACK tpttr failed (info={info})")
+    z = solve_triangular(L22, f, lower=True, check_finite=False)
+    del L22  # the unpacked block (0.6 GB at level 6) goes before y is allocated
     y = np.zeros((n, f.shape[1]), order="F")  # CHOLMOD's layout: no copy on the way in
-    y[-m:] = solve_triangular(L22, f, lower=True, check_finite=False)
-    del L22
+    y[-m:] = z
+    del z
     return chol.solve_Lt(y, use_LDLt_decomposition=False)
 
 
