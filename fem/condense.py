@@ -12,7 +12,9 @@ Two ways to get C from ONE factorisation per body:
   (fill-reducing ordering of the rest), factorise ``K_b = L L^T``; the trailing block
   ``L22`` (2n x 2n) of the factor is the Cholesky factor of the Schur complement
   ``S_b = L22 L22^T`` and ``C_b = S_b^{-1}`` is formed in place from it (LAPACK
-  ``potri``, no extra sparse solves, no dense block larger than 2n x 2n);
+  ``potri``, no extra sparse solves, no dense block larger than 2n x 2n; ``L22`` is read in
+  place from the supernodal factor, ``fem.supernodal``).  ``condense_bodies`` hands the
+  bodies' stiffnesses over one by one, without the block-diagonal K;
 - other backends (or bodies coupled in K): blocked multi-RHS solves ``K^{-1} E``.
 All contact iterations then work with the small dense C.
 
