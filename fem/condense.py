@@ -12,7 +12,9 @@ Two ways to get C from ONE factorisation per body:
   (fill-reducing ordering of the rest), factorise ``K_b = L L^T``; the trailing block
   ``L22`` (2n x 2n) of the factor is the Cholesky factor of the Schur complement
   ``S_b = L22 L22^T`` and ``C_b = S_b^{-1}`` is formed in place from it (LAPACK
-  ``potri``, no extra sparse solves, no dense block larger than 2n x 2n);
+  ``potri``, no extra sparse solves, no dense block larger than 2n x 2n; ``L22`` is read in
+  place from the supernodal factor, ``fem.supernodal``).  ``condense_bodies`` hands the
+  bodies' stiffnesses over one by one, without the block-diagonal K;
 - other backends (or bodies coupled in K): blocked multi-RHS solves ``K^{-1} E``.
 All contact iterations then work with the small dense C.
 
@@ -37,9 +39,10 @@ from scipy.linalg import solve_triangular
 from scipy.linalg.lapack import dpotri, dtpttr, dtrttp
 from scipy.sparse.csgraph import connected_components
 
-from .bulk import Discretisation
+from .bulk import Discretisation, reduced_bodies, reduced_stiffness
 from .errors import ConvergenceError
 from .linsolve import Factor, available_backends, factorize
+from .supernodal import trailing_block
 
 #: Right-hand sides per blocked solve (memory vs BLAS-3 efficiency).
 RHS_BLOCK = 256
@@ -97,6 +100,28 @@ def condense(
             return schur_cholmod(bodies, n)
     factor = factorize(K, backend)
     return with_pair_loads(factor, f1, f2), compliance(factor, f1, f2)
+
+
+def condense_bodies(disc: Discretisation, free: np.ndarray, f1: np.ndarray, f2: np.ndarray,
+                    backend: str = "auto") -> tuple[Factor, np.ndarray]:
+    """``condense(reduced_stiffness(disc, free), f1, f2, backend)``, the same numbers, without
+    the whole K when CHOLMOD takes the bodies one by one: each body's stiffness restricted to
+    its free dofs directly (the blocks :func:`body_blocks` would cut from K when body 1 is one
+    connected block; issue 28: at level 6 the block-diagonal K and a second round of index
+    copies had cost about 15 s and a K-sized copy beside the bodies')."""
+    if backend == "auto":
+        backend = available_backends()[0]
+    if backend == "cholmod":
+        K1, K2 = reduced_bodies(disc, free)
+        n1 = K1.shape[0]
+        if (f1.max() < n1 <= f2.min()
+                and connected_components(K1, directed=False, return_labels=False) == 1):
+            idx1, idx2 = np.arange(n1), np.arange(n1, n1 + K2.shape[0])
+            bodies = [(K1, idx1, f1), (K2, idx2, f2 - n1)]
+            del K1, K2
+            return schur_cholmod(bodies, n1 + idx2.size)
+        del K1, K2
+    return condense(reduced_stiffness(disc, free), f1, f2, backend)
 
 
 def with_pair_loads(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> Factor:
@@ -164,9 +189,11 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
             parts.append((idx, *parts[0][1:4], signs))
             flip_add(C, signs[local])
             continue
-        chol, perm = body_factor(Kb, local)
+        perm = body_order(Kb, local)
+        Kb = Kb[perm][:, perm].tocsc()  # the permuted copy replaces the body's own (issue 28)
+        chol = natural_cholesky(Kb)
         del Kb
-        Cb, packed = trailing_compliance(chol, local.size)
+        Cb, packed = trailing_compliance(chol, idx.size, local.size)
         parts.append((idx, perm, chol, packed, None))
         C = Cb if C is None else np.add(C, Cb, out=C)
         del Cb
@@ -207,9 +234,11 @@ def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarra
     L22, info = dtpttr(m, packed, uplo="L")
     if info != 0:
         raise ConvergenceError(f"recovery: LAPACK tpttr failed (info={info})")
+    z = solve_triangular(L22, f, lower=True, check_finite=False)
+    del L22  # the unpacked block (0.6 GB at level 6) goes before y is allocated
     y = np.zeros((n, f.shape[1]), order="F")  # CHOLMOD's layout: no copy on the way in
-    y[-m:] = solve_triangular(L22, f, lower=True, check_finite=False)
-    del L22
+    y[-m:] = z
+    del z
     return chol.solve_Lt(y, use_LDLt_decomposition=False)
 
 
@@ -248,24 +277,39 @@ def flip_add(C: np.ndarray, d: np.ndarray) -> None:
         C[r0:r1] *= 1.0 + d[r0:r1, None] * d[None, :]
 
 
-def body_factor(Kb: sp.csc_matrix, gamma: np.ndarray):
-    """``(chol, perm)`` of one body: CHOLMOD factor of ``Kb[perm][:, perm]`` with the pair dofs
-    ``gamma`` last (INNER_ORDERING of the rest)."""
-    from sksparse.cholmod import analyze, cholesky
+def body_order(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
+    """The elimination order of one body: INNER_ORDERING (CHOLMOD's fill-reducing ordering)
+    of its dofs off ``gamma``, then the pair dofs ``gamma`` last.  (Measured on cattaneo rings
+    body 1, numeric factorisation CPU s / supernodal entries at levels 4 / 5: this order 1.3 /
+    6.4 s, 27M / 80M; CHOLMOD's constrained minimum degree (camd, gamma last) 1.7 / 9.7 s,
+    32M / 93M; nested dissection of the whole body with gamma moved last 1.9 / 6.8 s, 27M /
+    81M; METIS of the whole body so 1.5 / 6.6 s, 27M / 81M.)"""
+    from sksparse.cholmod import analyze
 
     inner = np.setdiff1d(np.arange(Kb.shape[0]), gamma)
     method = INNER_ORDERING if Kb.shape[0] >= NESDIS_MIN_DOFS else "default"
     order = analyze(Kb[inner][:, inner].tocsc(), ordering_method=method)
-    perm = np.r_[inner[order.P()], gamma]
-    return cholesky(Kb[perm][:, perm].tocsc(), ordering_method="natural"), perm
+    return np.r_[inner[order.P()], gamma]
 
 
-def trailing_compliance(chol, m: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(C_b, packed)`` from a body's factor with its m pair dofs last: ``C_b =
+def natural_cholesky(Kp: sp.csc_matrix):
+    """CHOLMOD factor of ``Kp`` in its own order (already permuted by :func:`body_order`)."""
+    from sksparse.cholmod import cholesky
+
+    return cholesky(Kp, ordering_method="natural")
+
+
+def trailing_compliance(chol, n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(C_b, packed)`` from a body's factor (n x n) with its m pair dofs last: ``C_b =
     (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing factor block ``L22``
     (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and ``L22`` itself
-    packed (lower, LAPACK ``trttp``) for the recovery's backward solves."""
-    L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
+    packed (lower, LAPACK ``trttp``) for the recovery's backward solves.  ``L22`` is read in
+    place from the supernodal factor (``fem.supernodal``); only a factor that module cannot
+    read goes through ``chol.L()``, a converted copy of the whole factor (level 6's peak
+    memory before issue 28)."""
+    L22 = trailing_block(chol, n, m)
+    if L22 is None:
+        L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
     packed, info = dtrttp(L22, uplo="L")
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK trttp failed (info={info})")

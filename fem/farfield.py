@@ -31,7 +31,6 @@ from dataclasses import dataclass
 from math import factorial
 
 import numpy as np
-import scipy.sparse as sp
 
 #: Multipole orders kept (0: resultant, 1: first moments, 2: second moments).
 ORDERS = 3
@@ -137,6 +136,19 @@ class FarField:
         return self.fields @ (self.R @ lam)
 
 
+def coupling_loads(disc, free: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """``K[free][:, fixed] @ G`` of the block-diagonal K of both bodies (``fixed`` body 1's
+    prescribed dofs then body 2's, G's rows in that order), body by body: the bodies are
+    uncoupled, and the whole K is not formed (issue 28)."""
+    n1, k1 = disc.bases[0].N, disc.fixed[0].size
+    parts = []
+    for K, lo, hi, fixed, g in ((disc.stiffness[0], 0, n1, disc.fixed[0], G[:k1]),
+                                (disc.stiffness[1], n1, disc.n_dofs, disc.fixed[1], G[k1:])):
+        local = free[(free >= lo) & (free < hi)] - lo
+        parts.append(K[local][:, fixed] @ g)
+    return np.concatenate(parts)
+
+
 def lift(disc, factor, free: np.ndarray, x_pairs: np.ndarray) -> FarField:
     """Far-field fields of ``disc`` (boundary='half-plane'): the Flamant multipole data on
     the prescribed dofs, lifted into the bodies with the bulk factor (2 ORDERS solves)."""
@@ -144,8 +156,7 @@ def lift(disc, factor, free: np.ndarray, x_pairs: np.ndarray) -> FarField:
     dofs = tuple((b.doflocs[:, f], f % 2 == 0) for b, f in zip(disc.bases, disc.fixed, strict=True))
     fixed = np.r_[disc.fixed[0], disc.fixed[1] + disc.bases[0].N]
     G = boundary_fields(dofs, xr, disc.E, disc.nu)
-    K = sp.block_diag(disc.stiffness, format="csr")
     fields = np.zeros((disc.n_dofs, G.shape[1]))
     fields[fixed] = G
-    fields[free] = -factor.solve(K[free][:, fixed] @ G)
+    fields[free] = -factor.solve(coupling_loads(disc, free, G))
     return FarField(fields=fields, R=moment_matrix(x_pairs, xr), xr=xr)

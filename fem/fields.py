@@ -10,10 +10,12 @@ increments asked for together in one multi-RHS solve with sparse strain operator
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
 
-from .bulk import mass_matrix, vector_dofs
+from .bulk import compact, mass_matrix, vector_dofs
 from .condense import pair_loads
 from .linsolve import factorize
 
@@ -106,10 +108,12 @@ class FieldRecovery:
         projected onto its scalar nodal basis: ``M s = int phi sigma(u) dx`` per component."""
         if body not in self._projector:  # one factorisation and one operator per body
             scalar = self.disc.scalar_bases[body]
-            strain = strain_operators(scalar)
-            load = load_operator(scalar)
-            self._projector[body] = (factorize(self.mass(body), self.backend),
-                                     tuple((load @ B).tocsr() for B in strain))
+            load, ops = load_operator(scalar), []
+            for B in iter_strain_operators(scalar):  # one at a time (issue 28: level 5's peak)
+                ops.append((load @ B).tocsr())
+                del B
+            del load
+            self._projector[body] = (factorize(self.mass(body), self.backend), tuple(ops))
         mass, (Rxx, Ryy, Rxy) = self._projector[body]
         E, nu = self.disc.E, self.disc.nu
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
@@ -123,11 +127,18 @@ class FieldRecovery:
 
 
 def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
+    """The three operators of :func:`iter_strain_operators` together."""
+    return tuple(iter_strain_operators(scalar))
+
+
+def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
     """Sparse ``(Bxx, Byy, Bxy)`` with ``B @ u`` the strains ``eps_xx, eps_yy, eps_xy`` of the
     vector dof vector u (numbering :class:`fem.bulk.VectorDofs`) at the quadrature points of
     the scalar basis (rows ``(e, k)`` as in :func:`load_operator`; row ``(e, k)`` holds element
     e's vector dofs ``2 a + c`` in that order, the gradient of component c of vector shape
-    function ``(a, c)`` being scalar ``grad phi_a`` in row c; built in CSR form directly)."""
+    function ``(a, c)`` being scalar ``grad phi_a`` in row c; built in CSR form directly),
+    yielded one at a time with arrays of their own size (no view into a dense temporary
+    twice their size), so that a caller need not hold all three (issue 28)."""
     n_el, n_qp = scalar.dx.shape
     vec = vector_dofs(scalar)
     n_loc = vec.element_dofs.shape[0]
@@ -135,7 +146,6 @@ def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
     indices = np.broadcast_to(dofs[:, None, :], (n_el, n_qp, n_loc)).ravel()
     indptr = np.arange(0, n_el * n_qp * n_loc + 1, n_loc)
     sgrad = np.stack([np.asarray(phi[0].grad) for phi in scalar.basis], axis=-1)  # (2, e, q, a)
-    out = []
     for c, d in ((0, 0), (1, 1), (0, 1)):
         g = np.zeros((n_el, n_qp, n_loc))
         if c == d:  # eps_cc: d_c of component c
@@ -144,9 +154,11 @@ def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
             g[..., 0::2] = 0.5 * sgrad[1]
             g[..., 1::2] = 0.5 * sgrad[0]
         B = csr_matrix((g.ravel(), indices.copy(), indptr.copy()), shape=(n_el * n_qp, vec.N))
+        del g
         B.eliminate_zeros()
-        out.append(B)
-    return tuple(out)
+        B = compact(B)
+        yield B
+        del B
 
 
 def load_operator(scalar) -> csr_matrix:

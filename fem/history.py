@@ -17,8 +17,8 @@ import numpy as np
 
 from ._validate import check_scalars, check_settings
 from .activeset import ActiveSetSolver
-from .bulk import Discretisation, discretise, free_dofs, reduced_stiffness
-from .condense import condense, pair_dofs
+from .bulk import Discretisation, discretise, free_dofs
+from .condense import condense_bodies, pair_dofs
 from .contact import (
     ContactState,
     InterfaceProblem,
@@ -211,7 +211,7 @@ def build_model(
         raise InputError("h0 is infinite at (nearly) all interface nodes: no contact is possible")
     f1, f2 = pair_dofs(disc, index, cand)
     with timed(timings, "factorisation+condensation"):
-        factor, C = condense(reduced_stiffness(disc, free), f1, f2, backend)
+        factor, C = condense_bodies(disc, free, f1, f2, backend)
         far = None
         if disc.boundary == "half-plane":
             far = lift(disc, factor, free, x[cand])

@@ -195,8 +195,8 @@ def test_ring_mesh_bodies_share_one_factor_and_match_two_factorisations(monkeypa
     f1, f2 = cd.pair_dofs(disc, index, cand)
     K = reduced_stiffness(disc, free)
     calls = []
-    monkeypatch.setattr(cd, "body_factor",
-                        lambda *a, f=cd.body_factor: calls.append(1) or f(*a))
+    monkeypatch.setattr(cd, "natural_cholesky",
+                        lambda *a, f=cd.natural_cholesky: calls.append(1) or f(*a))
     one, C1 = condense(K, f1, f2, "cholmod")
     assert len(calls) == 1
     monkeypatch.setattr(cd, "mirror_signs", lambda *a: None)
@@ -208,3 +208,78 @@ def test_ring_mesh_bodies_share_one_factor_and_match_two_factorisations(monkeypa
     lam = np.random.default_rng(5).normal(size=(f1.size, 2))
     ref_u = two.pair_solve(lam)
     assert np.max(np.abs(one.pair_solve(lam) - ref_u)) <= 1e-10 * np.max(np.abs(ref_u))
+
+
+def ring_discretisation(boundary: str = "half-plane"):
+    from fem.bulk import discretise, free_dofs
+    from fem.mesh import build_mesh
+
+    tbm = build_mesh(fem.MeshSpec(level=0, layout="rings"), (-0.2, 0.2))
+    disc = discretise(tbm, 1, 1.0, 0.3, boundary)
+    free, index = free_dofs(disc)
+    return disc, free, index
+
+
+def same_sparse(A, B) -> bool:
+    return (A.shape == B.shape and np.array_equal(A.indptr, B.indptr)
+            and np.array_equal(A.indices, B.indices) and np.array_equal(A.data, B.data))
+
+
+def test_reduced_bodies_are_the_blocks_of_the_reduced_stiffness_bit_for_bit():
+    from fem.bulk import reduced_bodies
+
+    disc, free, _ = ring_discretisation()
+    K = reduced_stiffness(disc, free)
+    K1, K2 = reduced_bodies(disc, free)
+    n1 = K1.shape[0]
+    assert n1 + K2.shape[0] == K.shape[0]
+    assert same_sparse(K1, K[:n1][:, :n1].tocsc())
+    assert same_sparse(K2, K[n1:][:, n1:].tocsc())
+    assert K[:n1][:, n1:].nnz == 0
+
+
+def ring_pairs_with_a_condense_spy(monkeypatch):
+    """``(disc, free, f1, f2, calls)`` of a small ring mesh; ``calls`` grows by one per call
+    of ``fem.condense.condense`` (the whole-K path)."""
+    import fem.condense as cd
+
+    disc, free, index = ring_discretisation()
+    cand = np.flatnonzero(np.abs(disc.interface.x) <= 0.3)
+    f1, f2 = cd.pair_dofs(disc, index, cand)
+    calls = []
+    monkeypatch.setattr(cd, "condense", lambda *a, f=cd.condense: calls.append(1) or f(*a))
+    return disc, free, f1, f2, calls
+
+
+def test_condense_bodies_gives_the_numbers_of_condense_on_the_whole_stiffness(monkeypatch):
+    import fem.condense as cd
+
+    disc, free, f1, f2, calls = ring_pairs_with_a_condense_spy(monkeypatch)
+    factor, C = cd.condense_bodies(disc, free, f1, f2, "cholmod")
+    assert calls == []  # the bodies went straight to the per-body factors
+    ref_factor, ref_C = condense(reduced_stiffness(disc, free), f1, f2, "cholmod")
+    assert np.array_equal(C, ref_C)
+    lam = np.random.default_rng(2).normal(size=(f1.size, 3))
+    assert np.array_equal(factor.pair_solve(lam), ref_factor.pair_solve(lam))
+    b = np.random.default_rng(4).normal(size=(free.size, 2))
+    assert np.array_equal(factor.solve(b), ref_factor.solve(b))
+
+
+def test_condense_bodies_falls_back_to_the_whole_stiffness_off_cholmod(monkeypatch):
+    import fem.condense as cd
+
+    disc, free, f1, f2, calls = ring_pairs_with_a_condense_spy(monkeypatch)
+    _, C = cd.condense_bodies(disc, free, f1, f2, "scipy-splu")
+    assert calls == [1]
+    _, ref = cd.condense(reduced_stiffness(disc, free), f1, f2, "cholmod")
+    assert np.allclose(C, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+
+
+def test_far_field_coupling_loads_equal_the_whole_stiffness_product_bit_for_bit():
+    from fem.farfield import coupling_loads
+
+    disc, free, _ = ring_discretisation()
+    fixed = np.r_[disc.fixed[0], disc.fixed[1] + disc.bases[0].N]
+    G = np.random.default_rng(6).normal(size=(fixed.size, 4))
+    K = sp.block_diag(disc.stiffness, format="csr")
+    assert np.array_equal(coupling_loads(disc, free, G), K[free][:, fixed] @ G)

@@ -1,0 +1,96 @@
+"""The trailing block of a CHOLMOD supernodal factor read in place equals the one read through
+``Factor.L()`` to the last bit; factors it cannot read give None (the caller's fallback)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from fem.linsolve import available_backends
+
+pytestmark = pytest.mark.skipif("cholmod" not in available_backends(),
+                                reason="reads scikit-sparse's CHOLMOD factor")
+
+
+def elastic_like(m: int) -> sp.csc_matrix:
+    """SPD matrix with two coupled dofs per node of an m x m grid (dense trailing fronts)."""
+    T = sp.diags([-1.0, 2.5, -1.0], [-1, 0, 1], shape=(m, m))
+    lap = sp.kron(T, sp.eye(m)) + sp.kron(sp.eye(m), T)
+    return sp.kron(lap, np.array([[2.0, 0.5], [0.5, 2.0]])).tocsc()
+
+
+def natural_factor(A: sp.csc_matrix, mode: str = "supernodal"):
+    from sksparse.cholmod import cholesky
+
+    return cholesky(A, ordering_method="natural", mode=mode)
+
+
+@pytest.mark.parametrize("m", [1, 7, 60, 333, 2 * 30 * 30])
+def test_trailing_block_equals_the_converted_factor_bit_for_bit(m):
+    from fem.supernodal import trailing_block
+
+    A = elastic_like(30)
+    chol = natural_factor(A)
+    got = trailing_block(chol, A.shape[0], m)
+    ref = chol.L()[-m:, -m:].toarray()
+    assert got is not None and got.flags.f_contiguous
+    assert np.array_equal(got, ref)
+
+
+def test_the_block_spans_several_supernodes_and_starts_inside_one():
+    from fem.supernodal import factor_struct, int_array, trailing_block
+
+    A = elastic_like(30)
+    n, m = A.shape[0], 100
+    chol = natural_factor(A)
+    f = factor_struct(chol, n)
+    first = int_array(f, f.super_, f.nsuper + 1)[:-1]  # first column of each supernode
+    assert np.count_nonzero(first > n - m) >= 2  # the block spans several supernodes
+    assert np.any((first < n - m) & (np.r_[first[1:], n] > n - m))  # one starts before it
+    got = trailing_block(chol, n, m)
+    assert np.array_equal(got, chol.L()[-m:, -m:].toarray())
+
+
+@pytest.mark.parametrize("case", ["simplicial", "wrong size", "fill-reducing order", "no factor"])
+def test_factors_it_cannot_read_give_none(case):
+    from sksparse.cholmod import cholesky
+
+    from fem.supernodal import trailing_block
+
+    A = elastic_like(20)
+    n = A.shape[0]
+    if case == "simplicial":
+        chol, size = natural_factor(A, "simplicial"), n
+    elif case == "wrong size":
+        chol, size = natural_factor(A), n + 1
+    elif case == "fill-reducing order":
+        chol, size = cholesky(A, ordering_method="amd", mode="supernodal"), n
+    else:
+        chol, size = object(), n
+    assert trailing_block(chol, size, 10) is None
+
+
+def test_trailing_compliance_reads_the_supernodal_factor_in_place(monkeypatch):
+    import fem.condense as cd
+    import fem.supernodal as sn
+
+    A = elastic_like(30)
+    n, m = A.shape[0], 120
+    reads = []
+
+    def spy(chol, size, k):
+        out = sn.trailing_block(chol, size, k)
+        reads.append(out is not None)
+        return out
+
+    monkeypatch.setattr(cd, "trailing_block", spy)
+    chol = natural_factor(A)
+    Cb, packed = cd.trailing_compliance(chol, n, m)
+    assert reads == [True]
+    monkeypatch.setattr(cd, "trailing_block", lambda *a: None)  # the L() fallback
+    Cb_ref, packed_ref = cd.trailing_compliance(chol, n, m)
+    assert np.array_equal(Cb, Cb_ref) and np.array_equal(packed, packed_ref)
+    S = np.linalg.inv(np.linalg.inv(A.toarray())[-m:, -m:])  # Schur complement on the tail
+    Cfull = np.tril(Cb) + np.tril(Cb, -1).T
+    assert np.allclose(Cfull @ S, np.eye(m), atol=1e-10)
