@@ -157,7 +157,7 @@ def solve_sets(
     of ``fem.activeset``, solved by low-rank updates of reference factorisations)."""
     prob = solver.prob
     sets = make_sets(status, sign)
-    x, d = solver.solve(sets, rhs(prob, sets, old, load, pbar))
+    x, d = solver.solve(sets, lambda s: rhs(prob, s, old, load, pbar))
     z = np.zeros(3)
     z[: prob.n_plate] = x[2 * prob.n :]
     return x[: 2 * prob.n], z, d
