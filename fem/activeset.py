@@ -113,8 +113,7 @@ def rhs(prob: InterfaceProblem, sets: Sets, old, load: Load, pbar: np.ndarray) -
 def open_scale(prob: InterfaceProblem) -> np.ndarray:
     """``c``: the coefficient of an open row, ``|C_jj|`` (1 where it is zero), so that open
     rows are scaled like the compliance rows (C is SPD up to the far-field's low-rank term)."""
-    c = np.abs(np.diag(prob.C))
-    return np.where(c > 0, c, 1.0)
+    return prob.compliance_scale
 
 
 def rows(prob: InterfaceProblem, sets: Sets, idx: np.ndarray) -> np.ndarray:
