@@ -64,6 +64,9 @@ REFACTOR_FRACTION = 0.25
 REFACTOR_MIN_RANK = 8
 #: Above this many (row run, column run) blocks a product with C gathers a copy instead.
 MAX_BLOCKS = 64
+#: A row of J with at most this many entries (slip: lam_t and lam_n; open: lam) enters the
+#: capacitance matrix through the entries of W it picks, not a product over all columns.
+SPARSE_ROW = 2
 #: Reference factorisations kept (predictor-type and converged-type sets of an increment).
 POOL = 2
 
@@ -216,7 +219,9 @@ class Update:
     gathered into new arrays (cattaneo level 6, cProfile of the increments before: the gathers
     took 10 of 84 s, the capacitance 15 s, building ``A[J]`` 6 s).  The order of the slots
     does not matter to the update formula: J, ``W``, ``A[J]`` and ``S`` are permuted
-    together."""
+    together.  Most rows of J are slip or open rows with at most :data:`SPARSE_ROW` entries
+    (cattaneo level 5: 82 %); their entries of S are taken from the entries of W they pick
+    (``spc``, ``spv``: columns and values), not from products over all N columns."""
 
     size: int
     Wt: np.ndarray = field(init=False)
@@ -224,6 +229,9 @@ class Update:
     S: np.ndarray = field(init=False)
     idx: np.ndarray = field(init=False)  # row index of each slot
     kinds: np.ndarray = field(init=False)  # row kind of each slot
+    sparse: np.ndarray = field(init=False)  # the slot's row has <= SPARSE_ROW entries
+    spc: np.ndarray = field(init=False)  # (slots, SPARSE_ROW) their columns (value 0: unused)
+    spv: np.ndarray = field(init=False)  # (slots, SPARSE_ROW) their values
     slot_of: np.ndarray = field(init=False)  # slot of each row, -1 if not in J
     m: int = 0
     computed: int = 0  # rows plus columns of S computed so far (for tests and benchmarks)
@@ -232,7 +240,12 @@ class Update:
         self.Wt, self.AJ = np.zeros((0, self.size)), np.zeros((0, self.size))
         self.S = np.zeros((0, 0))
         self.idx, self.kinds = np.zeros(0, np.int64), np.zeros(0, np.int64)
+        self.sparse = np.zeros(0, bool)
+        self.spc, self.spv = np.zeros((0, SPARSE_ROW), np.int64), np.zeros((0, SPARSE_ROW))
         self.slot_of = np.full(self.size, -1, np.int64)
+
+    def _per_slot(self) -> tuple[str, ...]:
+        return ("Wt", "AJ", "idx", "kinds", "sparse", "spc", "spv")
 
     def reserve(self, m: int) -> None:
         """Room for m slots (capacity doubled, at most N)."""
@@ -241,11 +254,14 @@ class Update:
             return
         cap = min(self.size, max(m, 2 * cap, 16))
         old = self.m
-        Wt, AJ, S = np.zeros((cap, self.size)), np.zeros((cap, self.size)), np.zeros((cap, cap))
-        Wt[:old], AJ[:old], S[:old, :old] = self.Wt[:old], self.AJ[:old], self.S[:old, :old]
-        idx, kinds = np.zeros(cap, np.int64), np.zeros(cap, np.int64)
-        idx[:old], kinds[:old] = self.idx[:old], self.kinds[:old]
-        self.Wt, self.AJ, self.S, self.idx, self.kinds = Wt, AJ, S, idx, kinds
+        for name in self._per_slot():
+            arr = getattr(self, name)
+            grown = np.zeros((cap, *arr.shape[1:]), arr.dtype)
+            grown[:old] = arr[:old]
+            setattr(self, name, grown)
+        S = np.zeros((cap, cap))
+        S[:old, :old] = self.S[:old, :old]
+        self.S = S
 
     def drop(self, J: np.ndarray) -> None:
         """Remove the slots whose rows are not in J, moving the last slots into the holes."""
@@ -258,13 +274,78 @@ class Update:
         movers = np.setdiff1d(np.arange(new_m, m), leave)
         self.slot_of[self.idx[leave]] = -1
         if holes.size:
-            for arr in (self.Wt, self.AJ, self.idx, self.kinds):
+            for name in self._per_slot():
+                arr = getattr(self, name)
                 arr[holes] = arr[movers]
             self.S[holes, :m] = self.S[movers, :m]
             self.S[:new_m, holes] = self.S[:new_m, movers]
             self.slot_of[self.idx[holes]] = holes
         self.m = new_m
 
+    def set_rows(self, slots: np.ndarray, R: np.ndarray) -> None:
+        """Store the rows R of A at these slots, and the entries of the sparse ones."""
+        self.AJ[slots] = R
+        nz = R != 0
+        sparse = nz.sum(axis=1) <= SPARSE_ROW
+        self.sparse[slots] = sparse
+        r, c = np.nonzero(nz[sparse])
+        k = np.arange(r.size) - np.searchsorted(r, r)  # rank of the entry within its row
+        at = slots[sparse]
+        self.spc[at], self.spv[at] = 0, 0.0
+        self.spc[at[r], k], self.spv[at[r], k] = c, R[np.flatnonzero(sparse)[r], c]
+
+    def products(self, slots: np.ndarray, Wt: np.ndarray) -> np.ndarray:
+        """``A[J][slots] @ Wt.T``: sparse rows from the entries of Wt they pick, the others
+        by one product."""
+        out = np.empty((slots.size, Wt.shape[0]))
+        sp = self.sparse[slots]
+        if sp.any():
+            at = slots[sp]
+            out[sp] = sum(self.spv[at, k, None] * Wt[:, self.spc[at, k]].T
+                          for k in range(SPARSE_ROW))
+        if not sp.all():
+            out[~sp] = self.AJ[slots[~sp]] @ Wt.T
+        return out
+
+
+    def times(self, x: np.ndarray) -> np.ndarray:
+        """``A[J] x`` in slot order (sparse rows from their entries)."""
+        m = self.m
+        sp = self.sparse[:m]
+        out = (self.spv[:m] * x[self.spc[:m]]).sum(axis=1)
+        if not sp.all():
+            dense = np.flatnonzero(~sp)
+            out[dense] = self.AJ[dense] @ x
+        return out
+
+
+def update(ref: Reference, prob: InterfaceProblem, sets: Sets, J: np.ndarray,
+           kinds: np.ndarray) -> Update:
+    """The reference's update brought to the rows J (row kinds ``kinds``) of ``sets``."""
+    u = ref.work
+    u.drop(J)
+    m0 = u.m
+    slot = u.slot_of[J]
+    enter = J[slot < 0]
+    kept = slot >= 0
+    changed = slot[kept][u.kinds[slot[kept]] != kinds[kept]]
+    m = m0 + enter.size
+    u.reserve(m)
+    new = np.arange(m0, m)
+    u.idx[new] = enter
+    u.slot_of[enter] = new
+    if enter.size:
+        u.Wt[new] = ref.block(prob, enter, J)
+    redo = np.r_[changed, new]
+    u.kinds[u.slot_of[J]] = kinds
+    if redo.size:
+        u.set_rows(redo, rows(prob, sets, u.idx[redo]))
+        if new.size:
+            u.S[:m0, new] = u.products(np.arange(m0), u.Wt[new])
+        u.S[redo, :m] = u.products(redo, u.Wt[:m])
+        u.computed += redo.size + new.size
+    u.m = m
+    return u
 
 
 @dataclass(eq=False)
@@ -322,34 +403,6 @@ class Reference:
             for j, col in zip(new, np.ascontiguousarray(self.solve(prob, E).T), strict=True):
                 self.columns[int(j)] = col
         return np.array([self.columns[int(j)] for j in J])
-
-
-def update(ref: Reference, prob: InterfaceProblem, sets: Sets, J: np.ndarray,
-           kinds: np.ndarray) -> Update:
-    """The reference's update brought to the rows J (row kinds ``kinds``) of ``sets``."""
-    u = ref.work
-    u.drop(J)
-    m0 = u.m
-    slot = u.slot_of[J]
-    enter = J[slot < 0]
-    kept = slot >= 0
-    changed = slot[kept][u.kinds[slot[kept]] != kinds[kept]]
-    m = m0 + enter.size
-    u.reserve(m)
-    new = np.arange(m0, m)
-    u.idx[new] = enter
-    u.slot_of[enter] = new
-    if enter.size:
-        u.Wt[new] = ref.block(prob, enter, J)
-    redo = np.r_[changed, new]
-    u.kinds[u.slot_of[J]] = kinds
-    if redo.size:
-        u.AJ[redo] = rows(prob, sets, u.idx[redo])
-        u.S[:m0, new] = u.AJ[:m0] @ u.Wt[new].T
-        u.S[redo, :m] = u.AJ[redo] @ u.Wt[:m].T
-        u.computed += redo.size + new.size
-    u.m = m
-    return u
 
 
 def factor_reference(prob: InterfaceProblem, sets: Sets) -> Reference:
@@ -411,7 +464,7 @@ class ActiveSetSolver:
             if cap is None:
                 return x0
             m = u.m
-            t = lu_solve(cap, u.AJ[:m] @ x0 - r[u.idx[:m]], check_finite=False)
+            t = lu_solve(cap, u.times(x0) - r[u.idx[:m]], check_finite=False)
             return x0 - u.Wt[:m].T @ t
 
         x = apply(y, b)

@@ -132,8 +132,9 @@ def test_systems_of_one_increment_share_the_base_solve(lock_theta):
 
 def test_update_keeps_rows_columns_and_capacitance_of_the_rows_j():
     """After any sequence of row sets J (rows entering, leaving, changing kind) the update
-    holds J in some order with W = A0^{-1} E_J, A[J] and A[J] W, and computes fewer rows and
-    columns of A[J] W than rebuilding it every time."""
+    holds J in some order with W = A0^{-1} E_J, A[J] and A[J] W (slip and open rows from
+    their entries, the others by products), and computes fewer rows and columns of A[J] W
+    than rebuilding it every time."""
     from fem.activeset import factor_reference, update
 
     n = 40
@@ -143,7 +144,7 @@ def test_update_keeps_rows_columns_and_capacitance_of_the_rows_j():
     status[10:30] = STICK
     ref = factor_reference(prob, make_sets(status, np.ones(n)))
     A0 = rows(prob, ref.sets, np.arange(N))
-    rebuilt = 0
+    rebuilt, sparse_seen = 0, False
     for lo, hi, slip, sgn in ((8, 30, 0, 1), (8, 32, 2, 1), (6, 32, 4, -1), (6, 33, 4, 1),
                               (12, 28, 3, 1), (8, 30, 0, 1)):
         st = np.full(n, OPEN, np.int8)
@@ -161,5 +162,10 @@ def test_update_keeps_rows_columns_and_capacitance_of_the_rows_j():
         assert np.allclose(A0 @ u.Wt[: u.m].T, np.eye(N)[:, idx], atol=1e-12)
         S = AJ @ u.Wt[: u.m].T
         assert np.allclose(u.S[: u.m, : u.m], S, rtol=0, atol=1e-13 * np.abs(S).max())
+        x = np.random.default_rng(lo).normal(size=N)
+        assert np.allclose(u.times(x), AJ @ x, rtol=0, atol=1e-13 * np.abs(AJ).max())
+        assert np.array_equal(u.sparse[: u.m], np.count_nonzero(AJ, axis=1) <= 2)
+        sparse_seen |= u.sparse[: u.m].any() and not u.sparse[: u.m].all()
         rebuilt += 2 * J.size
+    assert sparse_seen
     assert 0 < u.computed < rebuilt
