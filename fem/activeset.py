@@ -149,6 +149,25 @@ def rows(prob: InterfaceProblem, sets: Sets, idx: np.ndarray) -> np.ndarray:
     return out
 
 
+def sparse_entries(
+    prob: InterfaceProblem, sets: Sets, idx: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which rows idx have at most SPARSE_ROW entries (open rows: ``c_j`` at j; slip rows:
+    1 at j and ``-mu s_j`` at j + n; as in :func:`rows`), and those entries' columns and
+    values ((idx.size, SPARSE_ROW); unused ones 0)."""
+    n = prob.n
+    pair = idx < 2 * n
+    st = sets.status[idx % n]
+    opn = pair & (st == OPEN)
+    slip = (idx < n) & (st == SLIP)
+    cols = np.zeros((idx.size, SPARSE_ROW), np.int64)
+    vals = np.zeros((idx.size, SPARSE_ROW))
+    cols[opn, 0], vals[opn, 0] = idx[opn], open_scale(prob)[idx[opn]]
+    cols[slip, 0], vals[slip, 0] = idx[slip], 1.0
+    cols[slip, 1], vals[slip, 1] = idx[slip] + n, -prob.mu * sets.sign[idx[slip]]
+    return opn | slip, cols, vals
+
+
 def matvec(prob: InterfaceProblem, sets: Sets, X: np.ndarray) -> np.ndarray:
     """``A X`` for the full matrix of ``sets`` (X: (N,) or (N, k)).  Only the compliance rows
     (stick tangential, active normal) read C, and only its columns where lam is non-zero:
@@ -282,17 +301,14 @@ class Update:
             self.slot_of[self.idx[holes]] = holes
         self.m = new_m
 
-    def set_rows(self, slots: np.ndarray, R: np.ndarray) -> None:
-        """Store the rows R of A at these slots, and the entries of the sparse ones."""
-        self.AJ[slots] = R
-        nz = R != 0
-        sparse = nz.sum(axis=1) <= SPARSE_ROW
-        self.sparse[slots] = sparse
-        r, c = np.nonzero(nz[sparse])
-        k = np.arange(r.size) - np.searchsorted(r, r)  # rank of the entry within its row
-        at = slots[sparse]
-        self.spc[at], self.spv[at] = 0, 0.0
-        self.spc[at[r], k], self.spv[at[r], k] = c, R[np.flatnonzero(sparse)[r], c]
+    def set_rows(self, prob: InterfaceProblem, sets: Sets, slots: np.ndarray) -> None:
+        """Store the rows of A (of ``sets``) at these slots: the entries of the sparse ones,
+        the dense ones whole (a sparse slot's row of ``AJ`` is never read)."""
+        sparse, cols, vals = sparse_entries(prob, sets, self.idx[slots])
+        self.sparse[slots], self.spc[slots], self.spv[slots] = sparse, cols, vals
+        dense = slots[~sparse]
+        if dense.size:
+            self.AJ[dense] = rows(prob, sets, self.idx[dense])
 
     def products(self, slots: np.ndarray, Wt: np.ndarray) -> np.ndarray:
         """``A[J][slots] @ Wt.T``: sparse rows from the entries of Wt they pick, the others
@@ -339,7 +355,7 @@ def update(ref: Reference, prob: InterfaceProblem, sets: Sets, J: np.ndarray,
     redo = np.r_[changed, new]
     u.kinds[u.slot_of[J]] = kinds
     if redo.size:
-        u.set_rows(redo, rows(prob, sets, u.idx[redo]))
+        u.set_rows(prob, sets, redo)
         if new.size:
             u.S[:m0, new] = u.products(np.arange(m0), u.Wt[new])
         u.S[redo, :m] = u.products(redo, u.Wt[:m])
