@@ -323,7 +323,6 @@ class Update:
             out[~sp] = self.AJ[slots[~sp]] @ Wt.T
         return out
 
-
     def times(self, x: np.ndarray) -> np.ndarray:
         """``A[J] x`` in slot order (sparse rows from their entries)."""
         m = self.m
