@@ -24,6 +24,7 @@ when the sets repeat and the law residual is below tolerance.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -59,13 +60,29 @@ class InterfaceProblem:
         return 2 if self.lock_theta else 3
 
     def plate_matrix(self) -> np.ndarray:
-        """B: rigid relative displacement of the pairs per plate DOF (u_p, v_p, theta)."""
+        """B: rigid relative displacement of the pairs per plate DOF (u_p, v_p, theta);
+        read-only, built once (every Newton system reads it)."""
+        return self._plate
+
+    @cached_property
+    def _plate(self) -> np.ndarray:
         n = self.n
         B = np.zeros((2 * n, 3))
         B[:n, 0] = 1.0
         B[n:, 1] = 1.0
         B[n:, 2] = self.x
-        return B[:, : self.n_plate]
+        B = np.ascontiguousarray(B[:, : self.n_plate])
+        B.flags.writeable = False
+        return B
+
+    @cached_property
+    def compliance_scale(self) -> np.ndarray:
+        """``|C_jj|`` (1 where it is zero), read-only: the size of pair row j's compliance
+        (the coefficient of an open row in ``fem.activeset``)."""
+        c = np.abs(np.diag(self.C))
+        c = np.where(c > 0, c, 1.0)
+        c.flags.writeable = False
+        return c
 
 
 @dataclass(frozen=True)
@@ -157,7 +174,7 @@ def solve_sets(
     of ``fem.activeset``, solved by low-rank updates of reference factorisations)."""
     prob = solver.prob
     sets = make_sets(status, sign)
-    x, d = solver.solve(sets, rhs(prob, sets, old, load, pbar))
+    x, d = solver.solve(sets, lambda s: rhs(prob, s, old, load, pbar))
     z = np.zeros(3)
     z[: prob.n_plate] = x[2 * prob.n :]
     return x[: 2 * prob.n], z, d

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
-from fem.activeset import OPEN, SLIP, STICK, ActiveSetSolver, make_sets, matvec, rows
-from fem.contact import InterfaceProblem
+from fem.activeset import OPEN, SLIP, STICK, ActiveSetSolver, make_sets, matvec, rhs, rows
+from fem.contact import InterfaceProblem, Load
 
 #: Relative residual of an updated solve: one refinement step brings it to rounding
 #: (measured 1e-15 .. 4e-14 on these problems).
@@ -59,7 +61,7 @@ def test_updated_solves_equal_direct_solves(lock_theta):
         A = rows(prob, sets, np.arange(N))
         b = rng.normal(size=N)
         b[: 2 * n][np.r_[status, status] == OPEN] = 0.0  # open rows say lam = 0
-        x, d = solver.solve(sets, b)
+        x, d = solver.solve(sets, lambda s, b=b: b)
         direct = np.linalg.solve(A, b)
         assert np.abs(A @ x - b).max() <= RESIDUAL_TOL * np.abs(A).max() * np.abs(x).max()
         assert np.allclose(x, direct, rtol=1e-9, atol=1e-10 * np.abs(direct).max())
@@ -81,30 +83,90 @@ def test_singular_system_raises_not_converged():
     A = rows(prob, sets, np.arange(2 * 20 + 3))
     assert np.linalg.matrix_rank(A) < A.shape[0]
     with pytest.raises(NotConverged, match="singular"):
-        ActiveSetSolver(prob).solve(sets, np.ones(2 * 20 + 3))
+        ActiveSetSolver(prob).solve(sets, lambda s: np.ones(2 * 20 + 3))
 
 
-def test_capacitance_reuses_entries_of_the_last_update():
-    """A[J] W from the last update's entries where row (index and kind) and column match,
-    the rest computed: equal to the full product, whichever rows changed kind."""
-    from fem.activeset import factor_reference
+def history_rhs(prob: InterfaceProblem, rng):
+    """``rhs_of`` of one increment: the contact right-hand side of any sets for a fixed load
+    and a random last converged state."""
+    n = prob.n
+    old = SimpleNamespace(lam=rng.normal(size=2 * n), d=rng.normal(size=2 * n),
+                          z=rng.normal(size=3))
+    load, pbar = Load(P=1.3, Q=0.2, M=None if prob.lock_theta else 0.1), rng.normal(size=n)
+    return lambda s: rhs(prob, s, old, load, pbar)
+
+
+@pytest.mark.parametrize("lock_theta", [True, False])
+def test_systems_of_one_increment_share_the_base_solve(lock_theta):
+    """The Newton systems of one increment (one right-hand side function) solve A x = b with
+    the reference's own right-hand side solved once; a b that differs from it outside J is
+    solved directly."""
+    n = 60
+    prob = problem(n, lock_theta)
+    rng = np.random.default_rng(5)
+    solver = ActiveSetSolver(prob)
+    N = 2 * n + prob.n_plate
+    rhs_of = history_rhs(prob, rng)
+    walk = status_walk(n, 30, rng)
+    bases = []  # the base solutions used, kept alive so that identity tells them apart
+    for status, sign in walk:
+        sets = make_sets(status, sign)
+        A, b = rows(prob, sets, np.arange(N)), rhs_of(sets)
+        x, _ = solver.solve(sets, rhs_of)
+        y = solver.pool[-1].base[1]  # the reference just used is the last
+        if not any(y is z for z in bases):
+            bases.append(y)
+        assert np.abs(A @ x - b).max() <= RESIDUAL_TOL * np.abs(A).max() * np.abs(x).max()
+        assert np.allclose(x, np.linalg.solve(A, b), rtol=1e-9, atol=1e-10 * np.abs(x).max())
+    assert solver.updates > 0
+    assert len(bases) == solver.factorisations  # one base solve per reference
+    ref = solver.pool[-1]
+    J = np.flatnonzero(ref.kinds != make_sets(*walk[-1]).kinds(prob.n_plate))
+    b_ref = rhs_of(ref.sets)
+    b = b_ref.copy()
+    outside = np.setdiff1d(np.arange(N), J)[0]
+    b[outside] += 1.0
+    y = ref.base_solution(prob, b, b_ref, J)
+    assert np.allclose(rows(prob, ref.sets, np.arange(N)) @ y, b)
+
+
+def test_update_keeps_rows_columns_and_capacitance_of_the_rows_j():
+    """After any sequence of row sets J (rows entering, leaving, changing kind) the update
+    holds J in some order with W = A0^{-1} E_J, A[J] and A[J] W (slip and open rows from
+    their entries, the others by products), and computes fewer rows and columns of A[J] W
+    than rebuilding it every time."""
+    from fem.activeset import factor_reference, update
 
     n = 40
     prob = problem(n, lock_theta=True)
+    N = 2 * n + prob.n_plate
     status = np.full(n, OPEN, np.int8)
     status[10:30] = STICK
     ref = factor_reference(prob, make_sets(status, np.ones(n)))
-    for k, (lo, hi, slip) in enumerate(((8, 30, 0), (8, 32, 2), (6, 32, 4), (6, 33, 4))):
+    A0 = rows(prob, ref.sets, np.arange(N))
+    rebuilt, sparse_seen = 0, False
+    for lo, hi, slip, sgn in ((8, 30, 0, 1), (8, 32, 2, 1), (6, 32, 4, -1), (6, 33, 4, 1),
+                              (12, 28, 3, 1), (8, 30, 0, 1)):
         st = np.full(n, OPEN, np.int8)
         st[lo:hi] = STICK
         st[lo : lo + slip] = SLIP
-        sets = make_sets(st, -np.ones(n))
-        J = np.flatnonzero(ref.kinds != sets.kinds(prob.n_plate))
-        W, AJ = ref.block(prob, J), rows(prob, sets, J)
-        reused = ref.last is not None and np.isin(J, ref.last[0]).any()
-        S = ref.capacitance(AJ, W, J, sets.kinds(prob.n_plate)[J])
-        assert reused == (k > 0)
-        assert np.allclose(S, AJ @ W, rtol=0, atol=1e-13 * np.abs(AJ @ W).max())
-    lJ, lk, lS = ref.last
-    ref.last = (lJ, lk, lS + 1.0)  # the same J and kinds again: every entry comes from the cache
-    assert np.array_equal(ref.capacitance(AJ, W, J, sets.kinds(prob.n_plate)[J]), lS + 1.0)
+        sets = make_sets(st, np.full(n, float(sgn)))
+        kinds = sets.kinds(prob.n_plate)
+        J = np.flatnonzero(ref.kinds != kinds)
+        u = update(ref, prob, sets, J, kinds[J])
+        idx = u.idx[: u.m]
+        assert np.array_equal(np.sort(idx), J)
+        assert np.array_equal(u.kinds[: u.m], kinds[idx])
+        AJ = rows(prob, sets, idx)
+        dense = ~u.sparse[: u.m]
+        assert np.array_equal(u.AJ[: u.m][dense], AJ[dense])
+        assert np.allclose(A0 @ u.Wt[: u.m].T, np.eye(N)[:, idx], atol=1e-12)
+        S = AJ @ u.Wt[: u.m].T
+        assert np.allclose(u.S[: u.m, : u.m], S, rtol=0, atol=1e-13 * np.abs(S).max())
+        x = np.random.default_rng(lo).normal(size=N)
+        assert np.allclose(u.times(x), AJ @ x, rtol=0, atol=1e-13 * np.abs(AJ).max())
+        assert np.array_equal(u.sparse[: u.m], np.count_nonzero(AJ, axis=1) <= 2)
+        sparse_seen |= u.sparse[: u.m].any() and not u.sparse[: u.m].all()
+        rebuilt += 2 * J.size
+    assert sparse_seen
+    assert 0 < u.computed < rebuilt
