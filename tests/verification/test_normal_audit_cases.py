@@ -19,6 +19,7 @@ import pytest
 import analytic
 from analytic import profiles
 from analytic._applied_moment import _face_rotation, _initial_rotation
+from compare.audit import checks
 from compare.bem import solve_normal_bem
 
 BEM_N = 4096
@@ -195,3 +196,22 @@ def test_moment_on_a_sharp_face_starts_at_the_face_rotation() -> None:
     assert sol.zones == [(-0.41295844720711383, 0.41295844720711383)]
     assert sol.theta == pytest.approx(_face_rotation(union, P, 1.0, M / P), rel=1e-10)
     assert _face_rotation(union, P, 1.0, -1.0) is None  # load centre off the face
+
+
+WEDGE_CYLINDER_LOADS = (1.0190592973091321e-05, 2.0381185946182643e-05, 4.0762371892365285e-05,
+                        1.0190592973091321e-04, 1.4059248402672854e-04, 2.0381185946182642e-04)
+"""Issue 29, item 1: a wedge beside a cylinder, refused at four of these six loads ("first-touch
+solve failed: no descent"); the audit's regression list has all six (three of them @slow: their
+BEM referee is slow), this test solves all six in the fast suite."""
+
+
+@pytest.mark.parametrize("P", WEDGE_CYLINDER_LOADS)
+def test_wedge_beside_a_cylinder_solves_at_every_load_of_issue_29(P: float) -> None:
+    """Both touch at h0 = 0 from the start: two zones, one around the wedge's apex and one on
+    the cylinder, and the audit's independent quadratures agree."""
+    u = profiles.union(profiles.wedge(0.37694438378945166, 0.1413358305910268),
+                       profiles.cylinder(0.6218232080292125, 1.0239449588943053, 0.0))
+    sol = analytic.solve_normal(u, P, 1.0)
+    (a0, b0), (a1, b1) = sol.zones
+    assert a0 < 0.0 < b0 < a1 < 1.0239449588943053 < b1
+    assert not [f.line() for f in checks.quadrature_findings(sol) if f.failed]
