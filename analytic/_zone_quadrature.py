@@ -264,10 +264,8 @@ def _segment_slopes(plan: SquadPlan, profile: Profile, s: np.ndarray) -> np.ndar
 def zone_clearances(edges: list[float]) -> list[float]:
     """Distance from each zone to the nearest edge of another zone (inf for a single zone);
     the edges are sorted, so only the neighbouring zones matter."""
-    n = len(edges) // 2
-    return [min(edges[2 * k] - edges[2 * k - 1] if k > 0 else math.inf,
-                edges[2 * k + 2] - edges[2 * k + 1] if k + 1 < n else math.inf)
-            for k in range(n)]
+    return [min(_gap_beyond(edges, 2 * k), _gap_beyond(edges, 2 * k + 1))
+            for k in range(len(edges) // 2)]
 
 
 def _beyond(i: int, neighbour: int | None, anchors: dict[int, float], where: dict[float, int],
@@ -288,16 +286,15 @@ def _close_neighbours(edges: list[float], k: int, longest: float) -> tuple[int |
     zone's segment is then graded towards that edge like towards a kink with a close cut beyond
     (audit seed 106705: two zones 0.42 and 0.45 wide, 1.4e-5 apart across a ridge, capped at
     MAX_NODES, put the rigid approach 2e-8 A P and the zone loads 6e-9 P off)."""
-    n = len(edges) // 2
-    left = 2 * k - 1 if k > 0 and _graded_gap(longest, edges[2 * k] - edges[2 * k - 1]) else None
-    right = (2 * k + 2 if k + 1 < n and _graded_gap(longest, edges[2 * k + 2] - edges[2 * k + 1])
-             else None)
+    left = 2 * k - 1 if _graded_gap(longest, _gap_beyond(edges, 2 * k)) else None
+    right = 2 * k + 2 if _graded_gap(longest, _gap_beyond(edges, 2 * k + 1)) else None
     return left, right
 
 
 def _graded_gap(longest: float, gap: float) -> bool:
     """A gap graded towards: one rule would be capped, and the gap is at least CLOSE_FLOOR of
-    the segment (crossed or touching zones of a rejected Newton step keep the capped rule)."""
+    the segment (crossed or touching zones of a rejected Newton step keep the capped rule; no
+    neighbour, ``gap = inf``, is never capped)."""
     return CLOSE_FLOOR * longest < gap and capped(longest, gap)
 
 
