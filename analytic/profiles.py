@@ -83,11 +83,13 @@ def _arc(rho: float, x_tan: float, side: int, lo: float, hi: float, lift: float)
         t2 = (x - x_tan) ** 2
         return lift + t2 / (rho + np.sqrt(np.maximum(rho**2 - t2, 0.0)))
 
-    def dh(x):
-        return (x - x_tan) / np.sqrt(rho**2 - (x - x_tan) ** 2)
+    def dh(x):  # +-inf at the arc's vertical ends (|x - x_tan| = rho), by design
+        with np.errstate(divide="ignore"):
+            return (x - x_tan) / np.sqrt(rho**2 - (x - x_tan) ** 2)
 
     def d2h(x):
-        return rho**2 / (rho**2 - (x - x_tan) ** 2) ** 1.5
+        with np.errstate(divide="ignore"):
+            return rho**2 / (rho**2 - (x - x_tan) ** 2) ** 1.5
 
     reach = (x_tan - 0.999 * rho, x_tan + 0.999 * rho)
     return Piece(lo, hi, h, dh, d2h, reach)

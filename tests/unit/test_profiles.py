@@ -7,6 +7,8 @@ slope, so a wrong derivative (which the solver integrates) is caught here.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -95,6 +97,19 @@ def test_rounded_punch_is_C1_at_the_tangent_points() -> None:
         for x0 in (-0.5, 0.5):
             left, right = prof.dh0(np.array([x0 - 1e-9, x0 + 1e-9]))
             assert abs(left) < 1e-8 and abs(right) < 1e-8
+
+
+def test_circular_corner_is_vertical_at_its_ends_without_a_warning() -> None:
+    """The arc's slope and curvature are infinite at its vertical ends (the tilted-punch search
+    brackets its minimum with them): +-inf by design, not a divide-by-zero warning."""
+    arc = profiles.flat_punch(-0.5, 0.5, corner_radius=1.0).pieces[-1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        slope, curvature = arc.dh(np.array([1.5])), arc.d2h(np.array([1.5]))
+        assert arc.dh(np.array([0.5]))[0] == 0.0  # its other end: tangent to the face
+    assert slope[0] == np.inf and curvature[0] == np.inf
+    assert profiles.flat_punch(-0.5, 0.5, corner_radius=1.0).pieces[0].dh(
+        np.array([-1.5]))[0] == -np.inf
 
 
 def test_wedge_and_double_wedge_kinks() -> None:
