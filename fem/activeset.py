@@ -32,8 +32,9 @@ newly changed row (cached per reference) and ``O(dr r N)`` for the capacitance m
 dr rows of J change (:class:`Update` keeps J, W, ``A[J]`` and ``A[J] W`` between systems),
 instead of an ``O(N_active^3)`` factorisation; a new reference is factorised only when the
 rank ``r = |J|`` exceeds :data:`REFACTOR_FRACTION` of the active system's size.  A small
-pool of references (:data:`POOL`) serves the two kinds of matrices of an increment: the
-elastic predictor (previously active pairs stick) and the converged-type sets (with slip).
+pool of references (:data:`POOL`) serves the two kinds of matrices of a history: the
+elastic predictor (previously active pairs stick; after a change of stage or a reversal) and
+the converged-type sets (with slip; the secant predictor's guesses are near them).
 One step of iterative refinement with the exact matrix follows every solve (as with the dense LU
 before: the penalty terms 1/(w k) next to a stiff compliance need it).
 """
@@ -72,7 +73,12 @@ POOL = 2
 
 
 class NotConverged(Exception):
-    """Internal: the active-set iteration of one (sub)increment failed."""
+    """Internal: the active-set iteration of one (sub)increment failed (``iterations``: the
+    Newton systems it solved before failing, 0 if not counted)."""
+
+    def __init__(self, message: str, iterations: int = 0) -> None:
+        super().__init__(message)
+        self.iterations = iterations
 
 
 @dataclass(frozen=True)
