@@ -323,15 +323,17 @@ def iterate(
     """The active-set iteration from the sets (status, slip sign): stops when the sets repeat
     and the law residual is <= tol; NotConverged (with its ``iterations``) if the sets cycle
     or max_iter systems do not converge.  ``guessed``: the first sets are the secant guess,
-    and a pair it let slip that the first system finds slipping the other way sticks instead
-    (the guess moved a slip front too far: at the end of stage 3 the returning front meets the
-    front of stage 2, where the margin's extrapolation overshoots; reversing those pairs sent
-    the iteration to full sliding and a cycle, cattaneo level 3)."""
+    and a slipping pair that the system finds slipping the other way sticks in the next sets
+    instead (the guess moved a slip front too far: at the end of stage 3 the returning front
+    meets the front of stage 2, where the margin's extrapolation overshoots; reversing those
+    pairs sent the iteration to full sliding and a cycle: cattaneo level 3, full_slip_first).
+    The sets are accepted only when the classification itself repeats them, so this changes
+    the path, not the converged state."""
     seen = set()
     for it in range(1, max_iter + 1):
         lam, z, d = solve_sets(solver, old, status, sign, load, pbar)
         new_status, new_sign = classify(prob, old, d, pbar)
-        if guessed and it == 1:
+        if guessed:
             new_status[(status == SLIP) & (new_status == SLIP) & (new_sign != sign)] = STICK
         if not np.any(new_status):
             new_status[np.argmin(prob.h0 + d[prob.n :])] = STICK
