@@ -111,3 +111,50 @@ def test_guess_moves_fronts_by_the_last_step():
     assert np.flatnonzero(status > OPEN).max() == 24
     assert np.array_equal(np.flatnonzero(status == SLIP), np.arange(13, 23))
     assert np.all(sign[status == SLIP] == 1.0)
+
+
+def toy_problem(n: int = 40) -> fem.contact.InterfaceProblem:
+    """A cylinder-like interface on an SPD log-kernel compliance (as in test_fem_activeset)."""
+    x = np.linspace(-1.0, 1.0, n)
+    w = np.full(n, x[1] - x[0])
+    r = np.abs(x[:, None] - x[None, :]) + 0.3 * w[0]
+    block = np.log(8.0 / r) * w[None, :] / np.pi
+    C = np.kron(np.eye(2), block) + 0.05 * np.eye(2 * n) * w[0]
+    return fem.contact.InterfaceProblem(C=C, x=x, w=w, h0=0.5 * x**2, mu=0.4, k_n=1e3 / w[0],
+                                        k_t=1e3 / w[0], lock_theta=True)
+
+
+def test_failed_secant_start_falls_back_to_the_elastic_predictor(monkeypatch):
+    """A secant attempt that fails costs its systems but not the increment: the elastic
+    predictor's iteration gives the same state; if that fails too, NotConverged is raised."""
+    prob = toy_problem()
+    first = fem.contact.initial_state(prob, None)
+    second = fem.contact.solve_increment(
+        prob, first, Load(0.05, 0.0, None), np.zeros(prob.n), 1e-10, 40)
+    third = Load(0.1, 0.0, None)
+
+    def solve(before):
+        return fem.contact.solve_increment(
+            prob, second, third, np.zeros(prob.n), 1e-10, 40, before=before)
+
+    assert fem.contact.secant_guess(prob, first, second, third) is not None
+    elastic = solve(None)
+    real = fem.contact.iterate
+
+    def failing_guess(*args, guessed=False):
+        if guessed:
+            raise fem.contact.NotConverged("forced", 3)
+        return real(*args)
+
+    monkeypatch.setattr(fem.contact, "iterate", failing_guess)
+    fallback = solve(first)
+    assert fallback.iterations == elastic.iterations + 3
+    assert np.array_equal(fallback.lam, elastic.lam)
+    assert np.array_equal(fallback.status, elastic.status)
+
+    def failing(*args, guessed=False):
+        raise fem.contact.NotConverged("forced", 3)
+
+    monkeypatch.setattr(fem.contact, "iterate", failing)
+    with pytest.raises(fem.contact.NotConverged, match="forced"):
+        solve(first)
