@@ -213,7 +213,7 @@ PARALLEL_TOL = 1e-9
 
 def load_ratio(before: Load, old: Load, load: Load) -> float | None:
     """``s > 0`` if the increment old -> load is s times before -> old (same direction),
-    else None (first increments, change of stage, reversal)."""
+    else None (nothing loaded before, change of stage, reversal)."""
     def vec(a: Load) -> np.ndarray:
         return np.array([a.P, a.Q, 0.0 if a.M is None else a.M])
 
