@@ -18,12 +18,17 @@ The laws are piecewise linear in (lam, z), so the semi-smooth Newton method with
 consistent tangent is the primal-dual active-set iteration: fix the sets
 (open / stick / slip+sign), solve the small dense linear system (``fem.activeset``: a
 low-rank update of a reference factorisation, not a new one per iteration), re-classify, stop
-when the sets repeat and the law residual is below tolerance.
+when the sets repeat and the law residual is below tolerance.  The first sets of an increment
+are extrapolated along the secant of the last two converged states while the load keeps its
+direction (:func:`secant_guess`: the contact and slip fronts move on by their last step), else
+(first increments, change of stage, reversal; or if the iteration from the secant guess fails)
+the elastic predictor's (:func:`first_guess`).  Cattaneo, ring level 3: 69 Newton systems for
+the 42 increments instead of 204 with the elastic predictor alone.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -200,6 +205,78 @@ def first_guess(prob: InterfaceProblem, old: ContactState, load: Load) -> np.nda
     return status
 
 
+#: Two load increments are parallel (the secant predictor applies) when the newer one differs
+#: from a multiple of the older one by at most this fraction of the loads (blend() of one
+#: target is parallel to rounding, ~1e-16; a change of stage or a reversal differs by O(1)).
+PARALLEL_TOL = 1e-9
+
+
+def load_ratio(before: Load, old: Load, load: Load) -> float | None:
+    """``s > 0`` if the increment old -> load is s times before -> old (same direction),
+    else None (nothing loaded before, change of stage, reversal)."""
+    def vec(a: Load) -> np.ndarray:
+        return np.array([a.P, a.Q, 0.0 if a.M is None else a.M])
+
+    prev, new = vec(old) - vec(before), vec(load) - vec(old)
+    scale = np.maximum.reduce([np.abs(vec(before)), np.abs(vec(old)), np.abs(vec(load))])
+    if not np.any(prev) or not np.any(new):
+        return None
+    k = np.argmax(np.abs(prev) / np.maximum(scale, 1e-300))
+    s = new[k] / prev[k]
+    if s <= 0 or np.any(np.abs(new - s * prev) > PARALLEL_TOL * scale):
+        return None
+    return float(s)
+
+
+def secant_guess(
+    prob: InterfaceProblem, before: ContactState, old: ContactState, load: Load
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Status and slip sign extrapolated along the secant of the last two converged states
+    (None if the load increments are not parallel, :func:`load_ratio`; ``s``: their ratio).
+    The contact and slip fronts move by a few pairs per increment; the elastic predictor
+    (:func:`first_guess`) restarts the slip zone from nothing, and the fronts then move by
+    about one pair per Newton system (cattaneo level 3: 4-6 systems per increment).
+
+    - an active pair stays active if its extrapolated pressure ``p + s (p - p_before)`` is
+      positive; an open pair becomes active if ``G + s (G - G_before)`` is not positive, with
+      ``G = sign(g) |g|^(2/3)``: near a smooth contact edge the gap grows like ``r^(3/2)`` in
+      the distance r from the edge, so G is linear in r and its extrapolation moves the edge
+      by s times its last step (the gap itself would overshoot, by 1.7 times at s = 1);
+    - a slipping pair keeps slipping the same way (the load keeps its direction); a sticking
+      one slips, the way its shear moved (``v = sign(tau - tau_before)``), if
+      ``F + s (F - F_before)`` is negative, ``F = sign(e) e^2`` of its margin
+      ``e = mu p - v tau``, which near a stick edge grows like ``r^(1/2)`` (Cattaneo-Mindlin;
+      after a reversal the shear of the pairs that start to slip back still has the old sign).
+    """
+    s = load_ratio(before.load, old.load, load)
+    if s is None:
+        return None
+    n, mu = prob.n, prob.mu
+
+    def ahead(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return a + s * (a - b)
+
+    way = np.sign(old.lam[:n] - before.lam[:n])
+
+    def margin(st: ContactState) -> np.ndarray:
+        e = mu * st.lam[n:] - way * st.lam[:n]
+        return np.sign(e) * e**2
+
+    def gap(st: ContactState) -> np.ndarray:
+        g = np.where(np.isfinite(prob.h0), prob.h0 + st.d[n:], 1.0)
+        return np.sign(g) * np.abs(g) ** (2.0 / 3.0)
+
+    was = old.status > OPEN
+    pressed = ahead(old.lam[n:], before.lam[n:]) > 0
+    active = np.where(was, pressed, ahead(gap(old), gap(before)) <= 0)
+    status = np.where(active, STICK, OPEN).astype(np.int8)
+    slips = old.status == SLIP
+    start = active & was & ~slips & (way != 0) & (ahead(margin(old), margin(before)) < 0)
+    status[active & slips] = SLIP
+    status[start] = SLIP
+    return status, np.where(slips, np.sign(old.lam[:n]), way)
+
+
 def solve_increment(
     prob: InterfaceProblem,
     old: ContactState,
@@ -208,16 +285,56 @@ def solve_increment(
     tol: float,
     max_iter: int,
     solver: ActiveSetSolver | None = None,
+    before: ContactState | None = None,
 ) -> ContactState:
     """Semi-smooth Newton (active-set) iteration for one load increment (``solver``: the
-    history's reference factorisations, a fresh one if None)."""
+    history's reference factorisations, a fresh one if None).  The first sets are the secant
+    predictor's (:func:`secant_guess`, from ``before``, the converged state before ``old``) when
+    the load keeps its direction, else the elastic predictor's (:func:`first_guess`); if the
+    iteration from the secant guess fails, it is repeated from the elastic one (its iterations
+    are counted too), so the secant guess never adds a failure."""
     solver = solver or ActiveSetSolver(prob)
-    status = first_guess(prob, old, load)
-    sign = np.sign(old.lam[: prob.n])
+    guess = None if before is None else secant_guess(prob, before, old, load)
+    spent = 0
+    if guess is not None:
+        try:
+            return iterate(prob, old, load, pbar, tol, max_iter, solver, *guess, guessed=True)
+        except NotConverged as exc:
+            spent = exc.iterations
+    state = iterate(
+        prob, old, load, pbar, tol, max_iter, solver, first_guess(prob, old, load),
+        np.sign(old.lam[: prob.n]),
+    )
+    return replace(state, iterations=state.iterations + spent)
+
+
+def iterate(
+    prob: InterfaceProblem,
+    old: ContactState,
+    load: Load,
+    pbar: np.ndarray,
+    tol: float,
+    max_iter: int,
+    solver: ActiveSetSolver,
+    status: np.ndarray,
+    sign: np.ndarray,
+    guessed: bool = False,
+) -> ContactState:
+    """The active-set iteration from the sets (status, slip sign): stops when the sets repeat
+    and the law residual is <= tol; NotConverged (with its ``iterations``) if the sets cycle
+    or max_iter systems do not converge.  ``guessed``: the first sets are the secant guess,
+    and a slipping pair that the system finds slipping the other way sticks in the next sets
+    instead (the guess moved a slip front too far: at the end of stage 3 the returning front
+    meets the front of stage 2, where the margin's extrapolation overshoots; reversing those
+    pairs sent the iteration to full sliding and a cycle: cattaneo level 3, full_slip_first).
+    The sets are accepted only when the classification itself repeats them, so this changes
+    the path, not the converged state."""
     seen = set()
     for it in range(1, max_iter + 1):
         lam, z, d = solve_sets(solver, old, status, sign, load, pbar)
         new_status, new_sign = classify(prob, old, d, pbar)
+        if guessed:
+            new_status[(status == SLIP) & (new_status == SLIP) & (new_sign != sign)] = STICK
         if not np.any(new_status):
             new_status[np.argmin(prob.h0 + d[prob.n :])] = STICK
         key = (new_status.tobytes(), (new_sign * (new_status == SLIP)).tobytes())
@@ -230,10 +347,12 @@ def solve_increment(
                 lam=lam, d=d, z=z, status=status, pbar=pbar, load=load, iterations=it
             )
         if key in seen and not same:
-            raise NotConverged(f"active set cycles after {it} iterations")
+            raise NotConverged(f"active set cycles after {it} iterations", it)
         seen.add(key)
         status, sign = new_status, new_sign
-    raise NotConverged(f"no convergence in {max_iter} iterations (law residual {residual:.3e})")
+    raise NotConverged(
+        f"no convergence in {max_iter} iterations (law residual {residual:.3e})", max_iter
+    )
 
 
 def penetration(prob: InterfaceProblem, state: ContactState) -> float:
@@ -247,12 +366,15 @@ def solve_augmented(
     load: Load,
     settings,
     solver: ActiveSetSolver | None = None,
+    before: ContactState | None = None,
 ) -> ContactState:
     """One increment; with ``settings.augmented`` Uzawa updates until penetration <= pen_tol
-    (``solver``: as in :func:`solve_increment`)."""
+    (``solver``, ``before``: as in :func:`solve_increment`)."""
     solver = solver or ActiveSetSolver(prob)
     pbar = old.lam[prob.n :] / prob.w if settings.augmented else np.zeros(prob.n)
-    state = solve_increment(prob, old, load, pbar, settings.newton_tol, settings.max_newton, solver)
+    state = solve_increment(
+        prob, old, load, pbar, settings.newton_tol, settings.max_newton, solver, before
+    )
     if not settings.augmented:
         return state
     for _ in range(settings.max_uzawa):
@@ -260,7 +382,7 @@ def solve_augmented(
             return state
         pbar = state.lam[prob.n :] / prob.w
         state = solve_increment(
-            prob, old, load, pbar, settings.newton_tol, settings.max_newton, solver
+            prob, old, load, pbar, settings.newton_tol, settings.max_newton, solver, before
         )
     if penetration(prob, state) <= settings.pen_tol:
         return state

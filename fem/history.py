@@ -266,16 +266,19 @@ def advance(
     contact: ContactSettings,
     stage: int,
     solver: ActiveSetSolver,
+    before: ContactState | None = None,
 ) -> ContactState:
-    """Reach ``target`` from ``old``, halving the step on failure (up to max_cutbacks times)."""
+    """Reach ``target`` from ``old``, halving the step on failure (up to max_cutbacks times;
+    ``before``: the converged state before ``old``, for the secant predictor of
+    :func:`fem.contact.solve_increment`)."""
     n_sub, last = 1, ""
     for _ in range(contact.max_cutbacks + 1):
-        state, its = old, 0
+        state, prev, its = old, before, 0
         try:
             for k in range(1, n_sub + 1):
-                state = solve_augmented(
-                    prob, state, blend(old.load, target, k / n_sub), contact, solver
-                )
+                state, prev = solve_augmented(
+                    prob, state, blend(old.load, target, k / n_sub), contact, solver, prev
+                ), state
                 its += state.iterations
             return replace(state, iterations=its)
         except NotConverged as exc:
@@ -291,11 +294,11 @@ def advance(
 
 def run_increments(prob: InterfaceProblem, schedule, contact: ContactSettings, M):
     """Converged states of all scheduled increments."""
-    state = initial_state(prob, M)
+    state, before = initial_state(prob, M), None
     solver = ActiveSetSolver(prob)
     states = []
     for stage, _, target in schedule:
-        state = advance(prob, state, target, contact, stage, solver)
+        state, before = advance(prob, state, target, contact, stage, solver, before), state
         states.append(state)
     return states
 

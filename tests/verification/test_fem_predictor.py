@@ -1,0 +1,160 @@
+"""The secant predictor of the active-set iteration (fem.contact.secant_guess, issue 28): far
+fewer Newton systems than the elastic predictor, the same converged history.
+
+The history is the library case ``cattaneo`` on the ring mesh at level 2 (n = 303 candidate
+pairs): stage 1 grows the contact zone, stage 2 the slip zones, stage 3 reverses the load (the
+elastic predictor there) and ends where the returning slip fronts meet those of stage 2.
+"""
+
+import numpy as np
+import pytest
+
+import fem.contact
+from compare.analytic_side import solve_case
+from compare.cases import load_case
+from compare.convergence import refined_growth
+from compare.fem_side import run_fem
+from fem.activeset import OPEN, SLIP, STICK
+from fem.contact import Load, load_ratio
+
+LEVEL = 2
+#: Newton systems of the whole history (42 increments): measured 61 with the secant predictor,
+#: 159 with the elastic predictor alone (the code before; level 3: 69 against 204).
+MAX_SYSTEMS = 80
+#: Newton systems of any stage-3 increment after the reversal: measured <= 3 (the last
+#: increment, where the guessed slip that reverses sticks instead: 18 systems before that rule,
+#: level 3).
+MAX_STAGE3_SYSTEMS = 4
+#: p and q of the two predictors' histories differ by rounding in the solves of the last
+#: Newton system (measured 1.1e-13 and 1.8e-13 of max p): the Newton tolerance is 1e-10.
+SAME_TOL = 1e-11
+
+
+def history(elastic: bool):
+    case = load_case("cattaneo").with_fem(layout="rings")
+    case = case.with_fem(level=LEVEL, growth=refined_growth(case, LEVEL))
+    normal = solve_case(case).normal
+    with pytest.MonkeyPatch.context() as mp:
+        if elastic:
+            mp.setattr(fem.contact, "secant_guess", lambda *args: None)
+        return run_fem(case, normal)
+
+
+@pytest.fixture(scope="module")
+def histories():
+    return history(elastic=False), history(elastic=True)
+
+
+def systems(hist) -> list[int]:
+    return [s.iterations for s in hist.steps]
+
+
+def test_secant_predictor_needs_fewer_newton_systems(histories):
+    secant, elastic = histories
+    print(f"Newton systems: secant {sum(systems(secant))}, elastic {sum(systems(elastic))}")
+    assert sum(systems(secant)) <= MAX_SYSTEMS < sum(systems(elastic))
+
+
+def test_reversal_and_end_of_stage3_converge_quickly(histories):
+    secant, _ = histories
+    stage3 = [s.iterations for s in secant.stage(3)]
+    assert max(stage3) <= MAX_STAGE3_SYSTEMS, stage3
+
+
+def test_same_history_as_elastic_predictor(histories):
+    secant, elastic = histories
+    pmax = max(np.abs(s.interface.p).max() for s in elastic.steps)
+    for a, b in zip(secant.steps, elastic.steps, strict=True):
+        assert np.array_equal(a.interface.status, b.interface.status)
+        assert np.abs(a.interface.p - b.interface.p).max() <= SAME_TOL * pmax
+        assert np.abs(a.interface.q - b.interface.q).max() <= SAME_TOL * pmax
+        zones, ref = np.asarray(a.contact_zones), np.asarray(b.contact_zones)
+        assert zones.shape == ref.shape
+        assert np.abs(zones - ref).max() <= SAME_TOL * np.ptp(ref)
+
+
+def test_load_ratio_only_for_increments_in_the_same_direction():
+    assert load_ratio(Load(1.0, 0.0, None), Load(2.0, 0.0, None), Load(3.5, 0.0, None)) == 1.5
+    s = load_ratio(Load(1.0, 0.0, 0.1), Load(2.0, 0.0, 0.2), Load(3.0, 0.0, 0.3))
+    assert s == pytest.approx(1.0)
+    # first increment (nothing moved before), change of stage, reversal, moment off the path
+    assert load_ratio(Load(0.0, 0.0, None), Load(0.0, 0.0, None), Load(1.0, 0.0, None)) is None
+    assert load_ratio(Load(1.0, 0.0, None), Load(2.0, 0.0, None), Load(2.0, 0.1, None)) is None
+    assert load_ratio(Load(2.0, 0.1, None), Load(2.0, 0.2, None), Load(2.0, 0.1, None)) is None
+    assert load_ratio(Load(1.0, 0.0, 0.1), Load(2.0, 0.0, 0.2), Load(3.0, 0.0, 0.4)) is None
+
+
+def test_guess_moves_fronts_by_the_last_step():
+    """Toy interface: a contact edge with gap ~ r^(3/2) and a stick edge with margin ~ r^(1/2)
+    that moved by 2 pairs in the last increment are moved by 2 more (s = 1); the pairs that
+    come into contact stick."""
+    n = 40
+    x = np.arange(n, dtype=float)
+    prob = fem.contact.InterfaceProblem(
+        C=np.eye(2 * n), x=x, w=np.ones(n), h0=np.full(n, 1.0), mu=0.5, k_n=1.0, k_t=1.0,
+        lock_theta=True)
+
+    def state(edge: float, front: float, P: float, Q: float) -> fem.contact.ContactState:
+        r = x - edge
+        gap = np.where(r > 0, np.abs(r) ** 1.5, -1e-9)
+        p = np.where(r < 0, 1.0, 0.0)
+        margin = np.where(x < front, np.sqrt(np.abs(front - x)), 0.0) * p
+        q = p * 0.5 - margin
+        status = np.where(r < 0, STICK, OPEN).astype(np.int8)
+        status[(r < 0) & (x >= front)] = SLIP
+        return fem.contact.ContactState(
+            lam=np.r_[q, p], d=np.r_[np.zeros(n), gap - 1.0], z=np.zeros(3), status=status,
+            pbar=np.zeros(n), load=Load(P, Q, None))
+
+    before, old = state(20.5, 16.5, 1.0, 0.1), state(22.5, 14.5, 2.0, 0.2)
+    status, sign = fem.contact.secant_guess(prob, before, old, Load(3.0, 0.3, None))
+    assert np.flatnonzero(status > OPEN).max() == 24
+    assert np.array_equal(np.flatnonzero(status == SLIP), np.arange(13, 23))
+    assert np.all(sign[status == SLIP] == 1.0)
+
+
+def toy_problem(n: int = 40) -> fem.contact.InterfaceProblem:
+    """A cylinder-like interface on an SPD log-kernel compliance (as in test_fem_activeset)."""
+    x = np.linspace(-1.0, 1.0, n)
+    w = np.full(n, x[1] - x[0])
+    r = np.abs(x[:, None] - x[None, :]) + 0.3 * w[0]
+    block = np.log(8.0 / r) * w[None, :] / np.pi
+    C = np.kron(np.eye(2), block) + 0.05 * np.eye(2 * n) * w[0]
+    return fem.contact.InterfaceProblem(C=C, x=x, w=w, h0=0.5 * x**2, mu=0.4, k_n=1e3 / w[0],
+                                        k_t=1e3 / w[0], lock_theta=True)
+
+
+def test_failed_secant_start_falls_back_to_the_elastic_predictor(monkeypatch):
+    """A secant attempt that fails costs its systems but not the increment: the elastic
+    predictor's iteration gives the same state; if that fails too, NotConverged is raised."""
+    prob = toy_problem()
+    first = fem.contact.initial_state(prob, None)
+    second = fem.contact.solve_increment(
+        prob, first, Load(0.05, 0.0, None), np.zeros(prob.n), 1e-10, 40)
+    third = Load(0.1, 0.0, None)
+
+    def solve(before):
+        return fem.contact.solve_increment(
+            prob, second, third, np.zeros(prob.n), 1e-10, 40, before=before)
+
+    assert fem.contact.secant_guess(prob, first, second, third) is not None
+    elastic = solve(None)
+    real = fem.contact.iterate
+
+    def failing_guess(*args, guessed=False):
+        if guessed:
+            raise fem.contact.NotConverged("forced", 3)
+        return real(*args)
+
+    monkeypatch.setattr(fem.contact, "iterate", failing_guess)
+    fallback = solve(first)
+    assert fallback.iterations == elastic.iterations + 3
+    assert np.array_equal(fallback.lam, elastic.lam)
+    assert np.array_equal(fallback.status, elastic.status)
+
+    def failing(*args, guessed=False):
+        raise fem.contact.NotConverged("forced", 3)
+
+    monkeypatch.setattr(fem.contact, "iterate", failing)
+    with pytest.raises(fem.contact.NotConverged, match="forced"):
+        solve(first)
