@@ -377,15 +377,17 @@ def solve_augmented(
     )
     if not settings.augmented:
         return state
+    its = state.iterations  # the increment's Newton systems, summed over the Uzawa updates
     for _ in range(settings.max_uzawa):
         if penetration(prob, state) <= settings.pen_tol:
-            return state
+            return replace(state, iterations=its)
         pbar = state.lam[prob.n :] / prob.w
         state = solve_increment(
             prob, old, load, pbar, settings.newton_tol, settings.max_newton, solver, before
         )
+        its += state.iterations
     if penetration(prob, state) <= settings.pen_tol:
-        return state
+        return replace(state, iterations=its)
     raise NotConverged(
         f"Uzawa: penetration {penetration(prob, state):.3e} > pen_tol="
         f"{settings.pen_tol:.3e} after {settings.max_uzawa} updates"

@@ -42,3 +42,21 @@ def test_augmented_penetration_below_tolerance_and_edges_fixed():
     )
     assert pen_shift > 10 * al_shift
     assert al_shift < 1e-4 * A_HERTZ
+
+
+def test_increment_iterations_are_summed_over_the_uzawa_updates(monkeypatch):
+    """FemStep.iterations counts every Newton system of the increment, those of all its Uzawa
+    updates (fem.results), not only the last update's."""
+    import fem.contact
+
+    calls, inner = [], fem.contact.solve_increment
+
+    def counted(*args, **kw):
+        state = inner(*args, **kw)
+        calls.append(state.iterations)
+        return state
+
+    monkeypatch.setattr(fem.contact, "solve_increment", counted)
+    hist = solve(0.1, True, 1e-7 * A_HERTZ)
+    assert len(calls) > len(hist.steps)  # some increment needed Uzawa updates
+    assert sum(s.iterations for s in hist.steps) == sum(calls)
