@@ -336,3 +336,59 @@ def test_far_field_coupling_loads_equal_the_whole_stiffness_product_bit_for_bit(
     G = np.random.default_rng(6).normal(size=(fixed.size, 4))
     K = sp.block_diag(disc.stiffness, format="csr")
     assert np.array_equal(coupling_loads(disc, free, G), K[free][:, fixed] @ G)
+
+
+def identical_neighbours(K: sp.csc_matrix, off: np.ndarray) -> np.ndarray:
+    """Dofs i (both i and i + 1 in ``off``) whose column in K has the pattern of i + 1's."""
+    ptr, ind = K.indptr, K.indices
+    return np.array([i for i in range(K.shape[0] - 1) if off[i] and off[i + 1]
+                     and np.array_equal(ind[ptr[i]:ptr[i + 1]], ind[ptr[i + 1]:ptr[i + 2]])])
+
+
+@pytest.mark.parametrize("nesdis", [True, False])
+def test_body_order_keeps_a_nodes_two_dofs_together_and_the_pair_dofs_last(monkeypatch, nesdis):
+    """The ordering is of the node graph: on a ring-mesh body every free node's x and y dofs
+    (consecutive dofs with one pattern) are eliminated one right after the other."""
+    import fem.condense as cd
+    from fem.bulk import reduced_bodies
+
+    disc, free, f1, _, _ = ring_pairs_with_a_condense_spy(monkeypatch)
+    K1, _ = reduced_bodies(disc, free)
+    monkeypatch.setattr(cd, "NESDIS_MIN_DOFS", 0 if nesdis else K1.shape[0] + 1)
+    perm = cd.body_order(K1, f1)
+    n = K1.shape[0]
+    assert np.array_equal(np.sort(perm), np.arange(n)) and np.array_equal(perm[-f1.size:], f1)
+    off = np.ones(n, dtype=bool)
+    off[f1] = False
+    pairs_ = identical_neighbours(K1, off)
+    assert pairs_.size >= 0.4 * n  # most dofs are a free node's pair
+    pos = np.empty(n, dtype=int)
+    pos[perm] = np.arange(n)
+    assert np.array_equal(pos[pairs_ + 1], pos[pairs_] + 1)
+
+
+def test_dof_groups_are_runs_of_one_pattern_on_one_side_of_the_pair_dofs():
+    from fem.condense import dof_groups
+
+    K = elastic_like(4)  # 16 nodes, dofs 2k and 2k + 1 share their pattern
+    assert np.array_equal(dof_groups(K, np.array([], dtype=int)), np.arange(32) // 2)
+    gid = dof_groups(K, np.array([5]))  # node 2's y dof a pair dof: node 2 splits
+    assert np.array_equal(gid[:8], [0, 0, 1, 1, 2, 3, 4, 4]) and gid[-1] == 16
+    keep = np.r_[0:7, 8:32]  # node 3's y dof removed (prescribed): its x dof alone
+    gid = dof_groups(K[keep][:, keep].tocsc(), np.array([], dtype=int))
+    assert np.array_equal(gid[:9], [0, 0, 1, 1, 2, 2, 3, 4, 4]) and gid[-1] == 15
+
+
+def test_node_graph_ordering_gives_the_compliance_of_a_reference_solve(monkeypatch):
+    """Ring-mesh bodies ordered by nested dissection of the node graph: C and the solves
+    agree with SuperLU on the whole stiffness to rounding."""
+    import fem.condense as cd
+
+    disc, free, f1, f2, _ = ring_pairs_with_a_condense_spy(monkeypatch)
+    monkeypatch.setattr(cd, "NESDIS_MIN_DOFS", 0)
+    factor, C = cd.condense_bodies(disc, free, f1, f2, "cholmod")
+    K = reduced_stiffness(disc, free)
+    ref = compliance(factorize(K, "scipy-splu"), f1, f2)
+    assert np.max(np.abs(C - ref)) <= 1e-11 * np.abs(ref).max()
+    b = np.random.default_rng(7).normal(size=(free.size, 2))
+    assert np.max(np.abs(K @ factor.solve(b) - b)) <= 1e-10 * np.abs(b).max()
