@@ -48,8 +48,9 @@ from .supernodal import trailing_block
 RHS_BLOCK = 256
 #: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last).  CHOLMOD's
 #: nested dissection beats its default (AMD) once the pair rows dominate the fill: cattaneo
-#: rings, body 1, numeric factorisation CPU s (nnz L) amd / nesdis: level 2 0.29 / 0.37 (2.9M /
-#: 2.5M), level 3 1.6 / 1.15 (8.4M / 7.1M), level 4 9.3 / 5.6 (25M / 21M); so CHOLMOD's
+#: rings, body 1, numeric factorisation CPU s (nnz L; Prescott kernels, see body_order) amd /
+#: nesdis: level 2 0.29 / 0.37 (2.9M / 2.5M), level 3 1.6 / 1.15 (8.4M / 7.1M), level 4 9.3 /
+#: 5.6 (25M / 21M); so CHOLMOD's
 #: default (AMD) below NESDIS_MIN_DOFS free dofs of the body (level 2: 32k, level 3: 77k).
 INNER_ORDERING, NESDIS_MIN_DOFS = "nesdis", 50_000
 #: Body 2's stiffness is taken as the mirror image of body 1's (one factorisation for both,
@@ -295,12 +296,16 @@ def body_order(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
     of the edges), each group's dofs kept together in their own order; only the ordering is
     computed (CHOLMOD's simplicial analysis, no supernodal symbolic factorisation).
     (Measured on cattaneo rings body 1, numeric factorisation CPU s / supernodal entries at
-    levels 4 / 5: this order 1.3 / 6.4 s, 27M / 80M; CHOLMOD's constrained minimum degree
+    levels 4 / 5, on OpenBLAS's Prescott fallback kernels (before ``fem.linsolve``'s
+    import_cholmod): this order 1.3 / 6.4 s, 27M / 80M; CHOLMOD's constrained minimum degree
     (camd, gamma last) 1.7 / 9.7 s, 32M / 93M; nested dissection of the whole body with gamma
     moved last 1.9 / 6.8 s, 27M / 81M; METIS of the whole body so 1.5 / 6.6 s, 27M / 81M.
     The node graph instead of the dof graph: the same supernodal entries 26.7M / 80.0M / 255M
     and factorisation flops 11.7G / 65.3G / 412G at levels 4 / 5 / 6; ordering CPU s
-    0.90 / 2.7 -> 0.69 / 2.2 at levels 4 / 5.)"""
+    0.90 / 2.7 / 9.0 -> 0.69 / 2.2 / 6.9; METIS instead of nesdis on the node graph 27.1M /
+    82.4M entries, 11.8G / 67.0G flops at levels 4 / 5.  With the CPU's kernels (SkylakeX)
+    this order's factorisation (analysis and numeric) takes 0.88 / 2.9 / 11.3-12.0 s at
+    levels 4 / 5 / 6.)"""
     from sksparse.cholmod import analyze
 
     if not Kb.has_sorted_indices:
