@@ -9,7 +9,10 @@ CHOLMOD runs on the system BLAS (OpenBLAS), which picks its kernels by the CPU m
 an OpenBLAS older than the CPU falls back to its slowest kernels (Prescott, SSE3).  This module
 imports scikit-sparse's CHOLMOD (:func:`import_cholmod`) with ``OPENBLAS_CORETYPE`` naming the
 kernels the CPU's instruction sets allow, for that import only and unless the user has set it:
-NumPy's and SciPy's own OpenBLAS are loaded before and keep their choice (issue 28).
+NumPy's and SciPy's own OpenBLAS are loaded before and keep their choice (issue 28).  It takes
+effect only where this module is imported before anything else loads CHOLMOD (``scipy.optimize``
+tries scikit-sparse on import): ``compare``, ``benchmarks/fingerprint.py`` and the tests'
+``conftest.py`` import it first; a process that loads CHOLMOD earlier keeps OpenBLAS's choice.
 """
 
 from __future__ import annotations
