@@ -225,16 +225,24 @@ def body_solves(parts: list, b: np.ndarray) -> np.ndarray:
     """``K^{-1} b`` body by body (``parts`` as :func:`schur_cholmod` builds them).  A mirror
     body's right-hand sides (``D b``, D = diag of its signs) join its original's in one
     multi-RHS solve with the shared factor: one pass through the factor instead of two
-    (issue 28: the far-field lift's solves at level 6)."""
+    (issue 28: the far-field lift's solves at level 6), the right-hand sides gathered straight
+    into one array in CHOLMOD's (column-major) layout."""
     cols = b.reshape(b.shape[0], -1)
     out = np.empty_like(cols)
-    rhs = [cols[idx][perm] if signs is None else (cols[idx] * signs[:, None])[perm]
-           for idx, perm, _, _, signs in parts]
-    x = parts[0][2](np.hstack(rhs)) if parts[-1][4] is not None else None
     k = cols.shape[1]
-    for j, (idx, perm, chol, _, signs) in enumerate(parts):
-        xb = chol(rhs[j]) if x is None else x[:, j * k:(j + 1) * k]
-        out[idx[perm]] = xb if signs is None else xb * signs[perm][:, None]
+    if parts[-1][4] is not None:  # body 2 the mirror image of body 1: one factor, one pass
+        (idx1, perm, chol, _, _), (idx2, _, _, _, signs) = parts
+        d = signs[perm][:, None]
+        rhs = np.empty((perm.size, 2 * k), order="F")
+        rhs[:, :k] = cols[idx1[perm]]
+        rhs[:, k:] = cols[idx2[perm]] * d
+        x = chol(rhs)
+        del rhs
+        out[idx1[perm]] = x[:, :k]
+        out[idx2[perm]] = x[:, k:] * d
+        return out.reshape(b.shape)
+    for idx, perm, chol, _, _ in parts:
+        out[idx[perm]] = chol(cols[idx[perm]])
     return out.reshape(b.shape)
 
 
