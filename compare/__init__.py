@@ -13,8 +13,13 @@ verify_convergence(case, [path1, path2, ...]) -> SequenceVerification: one code'
 compare.testing.assert_agrees(result, edge_rtol=..., stick_rtol=..., pressure_rtol=...)
 compare.report.write_report(cases, out_dir, convergence_cases=None, fig5=True) -> summary dict
 CaseError: bad case input (CLI exit code 2).
+
+``fem.linsolve`` is imported first: it loads CHOLMOD with the BLAS kernels named for the CPU,
+which only works before anything else loads it (``scipy.optimize``, which the analytic side
+imports, tries scikit-sparse's CHOLMOD on import).
 """
 
+import fem.linsolve  # noqa: F401
 from compare.cases import Case, FemSettings, case_from_dict, list_cases, load_case, read_case
 from compare.convergence import ConvergenceStudy, convergence
 from compare.errors import CaseError

@@ -48,8 +48,9 @@ from .supernodal import trailing_block
 RHS_BLOCK = 256
 #: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last).  CHOLMOD's
 #: nested dissection beats its default (AMD) once the pair rows dominate the fill: cattaneo
-#: rings, body 1, numeric factorisation CPU s (nnz L) amd / nesdis: level 2 0.29 / 0.37 (2.9M /
-#: 2.5M), level 3 1.6 / 1.15 (8.4M / 7.1M), level 4 9.3 / 5.6 (25M / 21M); so CHOLMOD's
+#: rings, body 1, numeric factorisation CPU s (nnz L; Prescott kernels, see body_order) amd /
+#: nesdis: level 2 0.29 / 0.37 (2.9M / 2.5M), level 3 1.6 / 1.15 (8.4M / 7.1M), level 4 9.3 /
+#: 5.6 (25M / 21M); so CHOLMOD's
 #: default (AMD) below NESDIS_MIN_DOFS free dofs of the body (level 2: 32k, level 3: 77k).
 INNER_ORDERING, NESDIS_MIN_DOFS = "nesdis", 50_000
 #: Body 2's stiffness is taken as the mirror image of body 1's (one factorisation for both,
@@ -200,14 +201,7 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
     mirror_lower(C)
 
     def solve(b: np.ndarray) -> np.ndarray:
-        b = np.asarray(b, dtype=float)
-        out = np.empty_like(b)
-        for idx, perm, chol, _, signs in parts:
-            bb = b[idx] if signs is None else b[idx] * signs.reshape(-1, *[1] * (b.ndim - 1))
-            x = np.empty_like(bb)
-            x[perm] = chol(bb[perm])
-            out[idx] = x if signs is None else x * signs.reshape(-1, *[1] * (b.ndim - 1))
-        return out
+        return body_solves(parts, np.asarray(b, dtype=float))
 
     def pair_solve(lam: np.ndarray, out: np.ndarray | None = None,
                    rows: np.ndarray | None = None) -> np.ndarray:
@@ -225,6 +219,31 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
         return out
 
     return Factor(backend="cholmod", solve=solve, n=n, pair_solve=pair_solve), C
+
+
+def body_solves(parts: list, b: np.ndarray) -> np.ndarray:
+    """``K^{-1} b`` body by body (``parts`` as :func:`schur_cholmod` builds them).  A mirror
+    body's right-hand sides (``D b``, D = diag of its signs) join its original's in one
+    multi-RHS solve with the shared factor: one pass through the factor instead of two
+    (issue 28: the far-field lift's solves at level 6), the right-hand sides gathered straight
+    into one array in CHOLMOD's (column-major) layout."""
+    cols = b.reshape(b.shape[0], -1)
+    out = np.empty_like(cols)
+    k = cols.shape[1]
+    if parts[-1][4] is not None:  # body 2 the mirror image of body 1: one factor, one pass
+        (idx1, perm, chol, _, _), (idx2, _, _, _, signs) = parts
+        d = signs[perm][:, None]
+        rhs = np.empty((perm.size, 2 * k), order="F")
+        rhs[:, :k] = cols[idx1[perm]]
+        rhs[:, k:] = cols[idx2[perm]] * d
+        x = chol(rhs)
+        del rhs
+        out[idx1[perm]] = x[:, :k]
+        out[idx2[perm]] = x[:, k:] * d
+        return out.reshape(b.shape)
+    for idx, perm, chol, _, _ in parts:
+        out[idx[perm]] = chol(cols[idx[perm]])
+    return out.reshape(b.shape)
 
 
 def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarray:
@@ -269,27 +288,77 @@ def mirror_signs(K1: sp.csc_matrix, K2: sp.csc_matrix, g1: np.ndarray, g2: np.nd
 
 
 def flip_add(C: np.ndarray, d: np.ndarray) -> None:
-    """``C += D C D`` in place (D = diag d, d = +-1), by row blocks: the compliance of a mirror
-    body added to its original's (lower triangle as potri left it)."""
+    """``C += D C D`` in place (D = diag d, d = +-1) on the lower triangle, by row blocks: the
+    compliance of a mirror body added to its original's (the lower triangle potri left; the
+    strict upper one, left as it is, is :func:`mirror_lower`'s to fill)."""
     m = C.shape[0]
     for r0 in range(0, m, RHS_BLOCK):
         r1 = min(r0 + RHS_BLOCK, m)
-        C[r0:r1] *= 1.0 + d[r0:r1, None] * d[None, :]
+        C[r0:r1, :r1] *= 1.0 + d[r0:r1, None] * d[None, :r1]
 
 
 def body_order(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
     """The elimination order of one body: INNER_ORDERING (CHOLMOD's fill-reducing ordering)
-    of its dofs off ``gamma``, then the pair dofs ``gamma`` last.  (Measured on cattaneo rings
-    body 1, numeric factorisation CPU s / supernodal entries at levels 4 / 5: this order 1.3 /
-    6.4 s, 27M / 80M; CHOLMOD's constrained minimum degree (camd, gamma last) 1.7 / 9.7 s,
-    32M / 93M; nested dissection of the whole body with gamma moved last 1.9 / 6.8 s, 27M /
-    81M; METIS of the whole body so 1.5 / 6.6 s, 27M / 81M.)"""
+    of its dofs off ``gamma``, then the pair dofs ``gamma`` last.  The ordering is of the
+    graph of :func:`dof_groups` (a node's x and y dofs together: half the vertices, a quarter
+    of the edges), each group's dofs kept together in their own order; only the ordering is
+    computed (CHOLMOD's simplicial analysis, no supernodal symbolic factorisation).
+    (Measured on cattaneo rings body 1, numeric factorisation CPU s / supernodal entries at
+    levels 4 / 5, on OpenBLAS's Prescott fallback kernels (before ``fem.linsolve``'s
+    import_cholmod): this order 1.3 / 6.4 s, 27M / 80M; CHOLMOD's constrained minimum degree
+    (camd, gamma last) 1.7 / 9.7 s, 32M / 93M; nested dissection of the whole body with gamma
+    moved last 1.9 / 6.8 s, 27M / 81M; METIS of the whole body so 1.5 / 6.6 s, 27M / 81M.
+    The node graph instead of the dof graph: the same supernodal entries 26.7M / 80.0M / 255M
+    and factorisation flops 11.7G / 65.3G / 412G at levels 4 / 5 / 6; ordering CPU s
+    0.90 / 2.7 / 9.0 -> 0.69 / 2.2 / 6.9; METIS instead of nesdis on the node graph 27.1M /
+    82.4M entries, 11.8G / 67.0G flops at levels 4 / 5.  With the CPU's kernels (SkylakeX)
+    this order's factorisation (analysis and numeric) takes 0.88 / 2.9 / 11.3-12.0 s at
+    levels 4 / 5 / 6.)"""
     from sksparse.cholmod import analyze
 
-    inner = np.setdiff1d(np.arange(Kb.shape[0]), gamma)
+    if not Kb.has_sorted_indices:
+        Kb = Kb.sorted_indices()
+    gid = dof_groups(Kb, gamma)
+    first = np.flatnonzero(np.r_[True, gid[1:] != gid[:-1]])
+    inner = np.setdiff1d(np.arange(first.size), gid[gamma])
+    graph = group_graph(Kb, gid, first)[inner][:, inner].tocsc()
     method = INNER_ORDERING if Kb.shape[0] >= NESDIS_MIN_DOFS else "default"
-    order = analyze(Kb[inner][:, inner].tocsc(), ordering_method=method)
-    return np.r_[inner[order.P()], gamma]
+    order = inner[analyze(graph, mode="simplicial", ordering_method=method).P()]
+    size = np.diff(np.r_[first, Kb.shape[0]])[order]
+    dofs = np.repeat(first[order] - (np.cumsum(size) - size), size) + np.arange(size.sum())
+    return np.r_[dofs, gamma]
+
+
+def dof_groups(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
+    """Group number of each dof (non-decreasing): runs of consecutive dofs with the same
+    sparsity pattern in ``Kb`` (sorted indices) and on the same side of ``gamma`` — a node's
+    x and y dofs when both are free (an elastic node couples both to the same nodes)."""
+    n = Kb.shape[0]
+    ptr, ind = Kb.indptr, Kb.indices
+    count = np.diff(ptr)
+    on_gamma = np.zeros(n, dtype=bool)
+    on_gamma[gamma] = True
+    cand = np.flatnonzero((count[:-1] == count[1:]) & (on_gamma[:-1] == on_gamma[1:]))
+    same = np.zeros(max(n - 1, 0), dtype=bool)  # dof i + 1 joins dof i's group
+    if cand.size:
+        lens = count[cand]
+        starts = np.cumsum(lens) - lens
+        at = np.repeat(ptr[cand] - starts, lens) + np.arange(lens.sum())  # column i's entries
+        same[cand] = np.logical_and.reduceat(ind[at] == ind[at + np.repeat(lens, lens)], starts)
+    return np.r_[0, np.cumsum(~same)]
+
+
+def group_graph(Kb: sp.csc_matrix, gid: np.ndarray, first: np.ndarray) -> sp.csc_matrix:
+    """The pattern of ``Kb`` between the groups of :func:`dof_groups` (group g's column: its
+    first dof's column, rows mapped to their groups; every dof of a group has that pattern)."""
+    ptr = Kb.indptr
+    lens = np.diff(ptr)[first]
+    starts = np.cumsum(lens) - lens
+    at = np.repeat(ptr[first] - starts, lens) + np.arange(lens.sum())
+    rows, cols = gid[Kb.indices[at]], np.repeat(np.arange(first.size), lens)
+    keep = np.r_[True, (rows[1:] != rows[:-1]) | (cols[1:] != cols[:-1])]
+    indptr = np.r_[0, np.cumsum(np.bincount(cols[keep], minlength=first.size))]
+    return sp.csc_matrix((np.ones(keep.sum()), rows[keep], indptr), shape=(first.size,) * 2)
 
 
 def natural_cholesky(Kp: sp.csc_matrix):

@@ -167,6 +167,59 @@ def test_a_mirror_body_reuses_the_first_factor_and_gives_the_same_compliance():
     assert np.max(np.abs(factor.pair_solve(lam) - ref_u)) <= 1e-12 * np.abs(ref_u).max()
 
 
+@pytest.mark.parametrize("m", [5, 300])
+def test_flip_add_on_the_lower_triangle_then_mirror_lower_gives_c_plus_dcd(m):
+    """The mirror body's compliance D C D added on potri's lower triangle (upper zero), then
+    mirrored: exactly C + D C D."""
+    from fem.condense import flip_add
+
+    rng = np.random.default_rng(m)
+    A = rng.normal(size=(m, m))
+    C = A + A.T
+    d = rng.choice([-1.0, 1.0], size=m)
+    got = np.tril(C)
+    flip_add(got, d)
+    mirror_lower(got)
+    assert np.array_equal(got, C + d[:, None] * C * d[None, :])
+
+
+class CountingFactor:
+    """A CHOLMOD factor that records the shape of every right-hand side it solves."""
+
+    def __init__(self, chol, calls: list):
+        self.chol, self.calls = chol, calls
+
+    def __call__(self, b):
+        self.calls.append(np.shape(b))
+        return self.chol(b)
+
+    def __getattr__(self, name):
+        return getattr(self.chol, name)
+
+
+@pytest.mark.parametrize("k", [1, 3])
+def test_a_mirror_body_is_solved_with_its_original_in_one_pass(monkeypatch, k):
+    """``solve`` hands both bodies' right-hand sides to the shared factor at once (the
+    far-field lift's solves: one pass through the factor, not two), with the same answer."""
+    import fem.condense as cd
+
+    m = 10
+    K1 = elastic_like(m)
+    d = np.tile([1.0, -1.0], m * m)
+    K = sp.block_diag([K1, (sp.diags(d) @ K1 @ sp.diags(d)).tocsc()], format="csc")
+    f1, f2 = pairs(2 * m, 0), pairs(2 * m, 2 * m * m)
+    calls = []
+    monkeypatch.setattr(cd, "natural_cholesky",
+                        lambda *a, f=cd.natural_cholesky: CountingFactor(f(*a), calls))
+    factor, _ = condense(K, f1, f2, "cholmod")
+    b = np.random.default_rng(6).normal(size=(K.shape[0], k))
+    calls.clear()
+    x = factor.solve(b)
+    assert calls == [(2 * m * m, 2 * k)]
+    assert np.max(np.abs(K @ x - b)) <= 1e-12 * np.abs(b).max()
+    assert factor.solve(b[:, 0]).shape == b[:, 0].shape
+
+
 def test_no_mirror_when_the_bodies_differ():
     import fem.condense as cd
 
@@ -283,3 +336,59 @@ def test_far_field_coupling_loads_equal_the_whole_stiffness_product_bit_for_bit(
     G = np.random.default_rng(6).normal(size=(fixed.size, 4))
     K = sp.block_diag(disc.stiffness, format="csr")
     assert np.array_equal(coupling_loads(disc, free, G), K[free][:, fixed] @ G)
+
+
+def identical_neighbours(K: sp.csc_matrix, off: np.ndarray) -> np.ndarray:
+    """Dofs i (both i and i + 1 in ``off``) whose column in K has the pattern of i + 1's."""
+    ptr, ind = K.indptr, K.indices
+    return np.array([i for i in range(K.shape[0] - 1) if off[i] and off[i + 1]
+                     and np.array_equal(ind[ptr[i]:ptr[i + 1]], ind[ptr[i + 1]:ptr[i + 2]])])
+
+
+@pytest.mark.parametrize("nesdis", [True, False])
+def test_body_order_keeps_a_nodes_two_dofs_together_and_the_pair_dofs_last(monkeypatch, nesdis):
+    """The ordering is of the node graph: on a ring-mesh body every free node's x and y dofs
+    (consecutive dofs with one pattern) are eliminated one right after the other."""
+    import fem.condense as cd
+    from fem.bulk import reduced_bodies
+
+    disc, free, f1, _, _ = ring_pairs_with_a_condense_spy(monkeypatch)
+    K1, _ = reduced_bodies(disc, free)
+    monkeypatch.setattr(cd, "NESDIS_MIN_DOFS", 0 if nesdis else K1.shape[0] + 1)
+    perm = cd.body_order(K1, f1)
+    n = K1.shape[0]
+    assert np.array_equal(np.sort(perm), np.arange(n)) and np.array_equal(perm[-f1.size:], f1)
+    off = np.ones(n, dtype=bool)
+    off[f1] = False
+    pairs_ = identical_neighbours(K1, off)
+    assert pairs_.size >= 0.4 * n  # most dofs are a free node's pair
+    pos = np.empty(n, dtype=int)
+    pos[perm] = np.arange(n)
+    assert np.array_equal(pos[pairs_ + 1], pos[pairs_] + 1)
+
+
+def test_dof_groups_are_runs_of_one_pattern_on_one_side_of_the_pair_dofs():
+    from fem.condense import dof_groups
+
+    K = elastic_like(4)  # 16 nodes, dofs 2k and 2k + 1 share their pattern
+    assert np.array_equal(dof_groups(K, np.array([], dtype=int)), np.arange(32) // 2)
+    gid = dof_groups(K, np.array([5]))  # node 2's y dof a pair dof: node 2 splits
+    assert np.array_equal(gid[:8], [0, 0, 1, 1, 2, 3, 4, 4]) and gid[-1] == 16
+    keep = np.r_[0:7, 8:32]  # node 3's y dof removed (prescribed): its x dof alone
+    gid = dof_groups(K[keep][:, keep].tocsc(), np.array([], dtype=int))
+    assert np.array_equal(gid[:9], [0, 0, 1, 1, 2, 2, 3, 4, 4]) and gid[-1] == 15
+
+
+def test_node_graph_ordering_gives_the_compliance_of_a_reference_solve(monkeypatch):
+    """Ring-mesh bodies ordered by nested dissection of the node graph: C and the solves
+    agree with SuperLU on the whole stiffness to rounding."""
+    import fem.condense as cd
+
+    disc, free, f1, f2, _ = ring_pairs_with_a_condense_spy(monkeypatch)
+    monkeypatch.setattr(cd, "NESDIS_MIN_DOFS", 0)
+    factor, C = cd.condense_bodies(disc, free, f1, f2, "cholmod")
+    K = reduced_stiffness(disc, free)
+    ref = compliance(factorize(K, "scipy-splu"), f1, f2)
+    assert np.max(np.abs(C - ref)) <= 1e-11 * np.abs(ref).max()
+    b = np.random.default_rng(7).normal(size=(free.size, 2))
+    assert np.max(np.abs(K @ factor.solve(b) - b)) <= 1e-10 * np.abs(b).max()

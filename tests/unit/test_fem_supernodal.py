@@ -94,3 +94,17 @@ def test_trailing_compliance_reads_the_supernodal_factor_in_place(monkeypatch):
     S = np.linalg.inv(np.linalg.inv(A.toarray())[-m:, -m:])  # Schur complement on the tail
     Cfull = np.tril(Cb) + np.tril(Cb, -1).T
     assert np.allclose(Cfull @ S, np.eye(m), atol=1e-10)
+
+
+@pytest.mark.parametrize("block", [1, 3, 64])
+@pytest.mark.parametrize("m", [100, 2 * 30 * 30])
+def test_the_block_copied_column_block_by_column_block_is_the_same(monkeypatch, block, m):
+    """COPY_BLOCK cuts the supernodes' diagonal blocks into column blocks (several per
+    supernode at these sizes): the same bits as the converted factor."""
+    import fem.supernodal as sn
+
+    monkeypatch.setattr(sn, "COPY_BLOCK", block)
+    A = elastic_like(30)
+    chol = natural_factor(A)
+    got = sn.trailing_block(chol, A.shape[0], m)
+    assert np.array_equal(got, chol.L()[-m:, -m:].toarray())
