@@ -123,7 +123,11 @@ class FemHistory:
 
 @dataclass(frozen=True)
 class Model:
-    """Everything fixed during the history: discretisation, factor, interface problem."""
+    """Everything fixed during the history: discretisation, factor, interface problem.
+
+    disc: the discretisation without its stiffness matrices (:func:`build_model` drops them
+    once factorised, issue 28); reaction_rows: body 1's stiffness rows of its top dofs
+    (``disc.fixed[0]``), all the recovery reads of it (the plate reactions ``K1 u1``)."""
 
     disc: Discretisation
     factor: Factor
@@ -134,6 +138,7 @@ class Model:
     prob: InterfaceProblem
     h0_all: np.ndarray
     far: FarField | None = None
+    reaction_rows: object = None
 
 
 def resolve_mesh(mesh, window, kinks) -> tuple[TwoBodyMesh, int, str]:
@@ -196,7 +201,10 @@ def build_model(
     backend: str,
     timings: dict,
 ) -> Model:
-    """Factorise the bulk, pick the candidate pairs and condense onto them."""
+    """Factorise the bulk, pick the candidate pairs and condense onto them.  The model's
+    discretisation is ``disc`` without the stiffness matrices (nothing after the factorisation
+    reads them but the plate reactions, whose rows the model keeps: a caller that drops its own
+    ``disc`` frees them, issue 28)."""
     free, index = free_dofs(disc)
     x = disc.interface.x
     h0_all = gap_at(h0, x)
@@ -228,7 +236,7 @@ def build_model(
         lock_theta=lock_theta,
     )
     return Model(
-        disc=disc,
+        disc=replace(disc, stiffness=None),
         factor=factor,
         free=free,
         f1=f1,
@@ -237,6 +245,7 @@ def build_model(
         prob=prob,
         h0_all=h0_all,
         far=far,
+        reaction_rows=disc.stiffness[0][disc.fixed[0]],
     )
 
 
@@ -345,6 +354,12 @@ def solve_increments(
     return states
 
 
+def without_compliance(model: Model) -> Model:
+    """The model without the interface compliance C, which only the contact iterations read
+    (``(2n)^2`` numbers: 0.7 GB at cattaneo ring level 6; issue 28): for the recovery."""
+    return replace(model, prob=replace(model.prob, C=None))
+
+
 def recover_steps(model: Model, schedule, states, P0: float, mu: float, timings: dict):
     """Full fields of all increments and their result steps, ``(fields, steps)`` (timed as
     'recovery')."""
@@ -396,11 +411,13 @@ def solve_history(
     with timed(timings, "history"):
         settings = resolve_contact(contact, E, tbm.h_min)
         model = build_model(disc, h0, mu, window, settings, M is None, backend, timings)
+        del disc  # its stiffness matrices go: the model keeps what the history reads
         states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings)
+        model = without_compliance(model)
         fields, steps = recover_steps(model, schedule, states, P0, mu, timings)
     hist = FemHistory(
         steps=steps,
-        n_dofs=disc.n_dofs,
+        n_dofs=model.disc.n_dofs,
         order=order,
         backend=model.factor.backend,
         timings=timings,
