@@ -1,11 +1,12 @@
 """Full-field recovery of every increment from the condensed solution.
 
-One blocked solve with the existing factor gives the clamped-top response of both
-bodies to the pair forces of all increments (with CHOLMOD's per-body factors only the backward
-sweep, ``Factor.pair_solve``); body 1 then gets the plate's rigid
-motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are recovered as
-``K1 u1`` on the top dofs; stresses are projected (L2) onto the nodal basis on demand, the
-increments asked for together in one multi-RHS solve with sparse strain operators.
+Multi-RHS solves with the existing factor give the clamped-top response of both bodies to the
+pair forces of all increments (with CHOLMOD's per-body factors only the backward sweep,
+``Factor.pair_solve``, by blocks of increments: ``fem.condense.RECOVERY_BLOCK``); body 1 then
+gets the plate's rigid motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are
+recovered as ``K1 u1`` on the top dofs (the rows of K1 the model kept); stresses are
+projected (L2) onto the nodal basis on demand, the increments asked for together in one
+multi-RHS solve with sparse strain operators.
 """
 
 from __future__ import annotations

@@ -1,12 +1,17 @@
 """Three-stage load history driver: ``solve_history`` and ``FemHistory``.
 
 mesh -> discretise -> factorise once -> interface compliance -> per increment the
-condensed contact solve (with cut-back) -> one blocked solve recovering the full
-field of every increment -> plate reactions checked against (P, Q, M).
+condensed contact solve (with cut-back) -> multi-RHS solves (by blocks of increments)
+recovering the full field of every increment -> plate reactions checked against (P, Q, M).
+What a phase no longer needs is dropped before the next (the stiffness matrices once
+factorised, the compliance after the increments) and the freed heap handed back
+(:func:`return_freed_memory`; issue 28).
 """
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -342,6 +347,26 @@ def assemble_bodies(
     return tbm, order, disc
 
 
+@functools.cache
+def _malloc_trim() -> Callable | None:
+    """glibc's ``malloc_trim``, or None where the C library has none."""
+    try:
+        return ctypes.CDLL(None).malloc_trim
+    except (OSError, AttributeError):
+        return None
+
+
+def return_freed_memory() -> None:
+    """Hand the heap memory freed so far back to the operating system (glibc's
+    ``malloc_trim``; a no-op elsewhere).  Once a large array has been freed glibc serves the
+    arrays of up to its size (at most 32 MB) from its heap and keeps the memory they free,
+    resident beneath the next phase: the driver returns it between phases (issue 28; cattaneo
+    rings level 3, peak RSS of the history 350 MB -> 316 MB; the numbers are untouched)."""
+    trim = _malloc_trim()
+    if trim is not None:
+        trim(0)
+
+
 def solve_increments(
     prob: InterfaceProblem, schedule, contact: ContactSettings, M, h: float, timings: dict
 ) -> list:
@@ -408,12 +433,15 @@ def solve_history(
     schedule = load_schedule(P0, Q0, M, increments or LoadPath())
     timings = {}
     tbm, order, disc = assemble_bodies(mesh, window, kinks, E, nu, timings)
+    return_freed_memory()  # the assembly's temporaries
     with timed(timings, "history"):
         settings = resolve_contact(contact, E, tbm.h_min)
         model = build_model(disc, h0, mu, window, settings, M is None, backend, timings)
         del disc  # its stiffness matrices go: the model keeps what the history reads
+        return_freed_memory()  # the factorisation's temporaries and the stiffness
         states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings)
         model = without_compliance(model)
+        return_freed_memory()  # the compliance and the contact solver's matrices
         fields, steps = recover_steps(model, schedule, states, P0, mu, timings)
     hist = FemHistory(
         steps=steps,
