@@ -49,13 +49,16 @@ from .supernodal import trailing_block
 RHS_BLOCK = 256
 #: Increments per backward sweep of the recovery (issue 28): the sweep's dense right-hand side
 #: and solution, (body dofs x columns) each, are held for one block of increments, not for all
-#: (2 x 0.57 GB for 42 increments at cattaneo ring level 6).  A multiple of 8: CHOLMOD's BLAS
-#: takes the columns in groups (of 4 on this project's machine), a sweep's last, narrower group
-#: with other kernels whose sums differ in the last bits (1e-15 relative); blocks starting at
-#: multiples of the group width keep every column in the group it has in the all-at-once
-#: sweep, hence its numbers bit for bit (cattaneo rings level 2, 42 increments: blocks of 4, 8,
-#: 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6, 41 not; tests/unit/test_fem_condense.py).
-RECOVERY_BLOCK = 8
+#: (cattaneo rings level 6, 42 increments: 2 x 0.17 GB instead of 2 x 0.45 GB; with blocks of
+#: 8 the recovery's peak RSS measured 4.2 GB, below the contact iterations' 5.1 GB).  Narrower
+#: blocks cost more sweeps through the factor (level 5 sweep CPU s: all 42 at once 2.3, blocks
+#: of 16 2.9, of 8 3.5).  A multiple of 8: CHOLMOD's BLAS takes the columns in groups (of 4 on
+#: this project's machine), a sweep's last, narrower group with other kernels whose sums differ
+#: in the last bits (1e-15 relative); blocks starting at multiples of the group width keep every
+#: column in the group it has in the all-at-once sweep, hence its numbers bit for bit (cattaneo
+#: rings level 2, 42 increments: blocks of 4, 8, 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6,
+#: 41 not; tests/unit/test_fem_condense.py).
+RECOVERY_BLOCK = 16
 #: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last).  CHOLMOD's
 #: nested dissection beats its default (AMD) once the pair rows dominate the fill: cattaneo
 #: rings, body 1, numeric factorisation CPU s (nnz L) amd / nesdis: level 2 0.29 / 0.37 (2.9M /

@@ -128,8 +128,8 @@ def test_recovered_fields_equal_a_coupled_solve_on_a_small_mesh():
 
 @pytest.mark.parametrize("layout", ["tensor", "rings"])
 def test_recovery_by_blocks_of_increments_equals_all_at_once_bit_for_bit(monkeypatch, layout):
-    """The recovery's backward sweeps, far field and plate motion by blocks of RECOVERY_BLOCK
-    increments (22 increments: blocks 8 + 8 + 6) give the numbers of one block of all
+    """The recovery's backward sweeps, far field and plate motion by blocks of increments (22
+    increments: blocks 8 + 8 + 6, and of RECOVERY_BLOCK) give the numbers of one block of all
     increments bit for bit (tensor: two factors; rings: body 2 the mirror of body 1), and the
     model's stiffness rows of the top give the reactions of the whole stiffness."""
     import fem.condense as cd
@@ -149,6 +149,7 @@ def test_recovery_by_blocks_of_increments_equals_all_at_once_bit_for_bit(monkeyp
     states = run_increments(model.prob, schedule, settings, None)
     assert len(states) == 22 and cd.column_blocks(22, 8) == [slice(0, 8), slice(8, 16),
                                                              slice(16, 22)]
+    default = FieldRecovery.from_states(model, states)
     monkeypatch.setattr(cd, "RECOVERY_BLOCK", 8)
     monkeypatch.setattr(fields, "RECOVERY_BLOCK", 8)
     got = FieldRecovery.from_states(model, states)
@@ -158,6 +159,7 @@ def test_recovery_by_blocks_of_increments_equals_all_at_once_bit_for_bit(monkeyp
     whole = FieldRecovery(disc, *ref.U)  # reactions from the whole K1 of the caller's disc
     for body in (0, 1):
         assert np.array_equal(got.U[body], ref.U[body])
+        assert np.array_equal(default.U[body], ref.U[body])
     assert np.array_equal(got._reactions, whole._reactions)
 
 
