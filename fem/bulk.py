@@ -103,7 +103,8 @@ class Discretisation:
 
     bases: per body, the vector dof numbering (:class:`VectorDofs`); scalar_bases: per body,
     the scalar skfem basis (quadrature data for the stress projection and the mass matrix;
-    :class:`ScalarBases`, built when first asked for). stiffness: (K1, K2).
+    :class:`ScalarBases`, built when first asked for). stiffness: (K1, K2); None in a
+    history's model and result (``fem.history.build_model`` drops them once factorised).
     fixed: prescribed dofs of body 1 (top, or the whole outer boundary with
     boundary='half-plane') and body 2 (bottom, or its whole outer boundary).
     E, nu: material; order: element order.
@@ -156,8 +157,10 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
     per_el = (2 * n_loc) ** 2
     # the triplets go straight into arrays of their final size: no list of per-block arrays
     # and no concatenated copy (the blocks' arrays, freed at once, leave no heap behind)
-    data = np.empty(n_el * per_el)
-    r, c = np.empty(n_el * per_el, dtype=np.int64), np.empty(n_el * per_el, dtype=np.int64)
+    n = 2 * scalar.N
+    itype = np.int32 if max(n, n_el * per_el) < np.iinfo(np.int32).max else np.int64
+    data = np.empty(n_el * per_el)  # 32-bit indices where they fit: the COO keeps them as they are
+    r, c = np.empty(n_el * per_el, dtype=itype), np.empty(n_el * per_el, dtype=itype)
     for e0 in range(0, n_el, ELEMENT_BLOCK):
         sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
         g = grads[:, :, sl]
@@ -172,7 +175,7 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
         r[out] = np.broadcast_to(vec[:, :, None, :, None], Ke.shape).ravel()
         c[out] = np.broadcast_to(vec[:, None, :, None, :], Ke.shape).ravel()
         del D, trace, Ke, vec
-    n = 2 * scalar.N
+    del grads
     return compact(sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr())
 
 
@@ -233,21 +236,8 @@ def discretise(
     boundary: 'clamped' (body 1's top and body 2's bottom fixed, the sides free) or
     'half-plane' (every boundary dof off y = 0 fixed; fem.farfield prescribes it).
     """
-    scalars = tuple(Basis(m, ELEMENTS[order]()) for m in mesh.bodies)
-    b1, b2 = (vector_dofs(s) for s in scalars)
-    K1, K2 = (elasticity_matrix(s, E, nu) for s in scalars)
-    x1, w1, d1 = interface_side(mesh.bodies[0], mesh.nodes["contact_upper"], order, scalars[0])
-    x2, w2, d2 = interface_side(mesh.bodies[1], mesh.nodes["contact_lower"], order, scalars[1])
-    if boundary == "half-plane":
-        fixed = tuple(
-            vector_facet_dofs(s, b, outer_facets(m))
-            for s, b, m in zip(scalars, (b1, b2), mesh.bodies, strict=True)
-        )
-    else:
-        fixed = (
-            vector_facet_dofs(scalars[0], b1, facets_on(mesh.bodies[0], mesh.nodes["top"])),
-            vector_facet_dofs(scalars[1], b2, facets_on(mesh.bodies[1], mesh.nodes["bottom"])),
-        )
+    parts = [assemble_body(mesh, body, order, E, nu, boundary) for body in (0, 1)]
+    (b1, K1, (x1, w1, d1), fixed1), (b2, K2, (x2, w2, d2), fixed2) = parts
     iface = Interface(x=0.5 * (x1 + x2), w=0.5 * (w1 + w2), dof1=d1, dof2=d2)
     return Discretisation(
         mesh=mesh,
@@ -257,10 +247,37 @@ def discretise(
         bases=(b1, b2),
         scalar_bases=ScalarBases(mesh.bodies, order),
         stiffness=(K1, K2),
-        fixed=fixed,
+        fixed=(fixed1, fixed2),
         interface=iface,
         boundary=boundary,
     )
+
+
+def assemble_body(mesh: TwoBodyMesh, body: int, order: int, E: float, nu: float,
+                  boundary: str) -> tuple:
+    """One body of :func:`discretise`: its vector dofs, stiffness, interface side ``(x, w,
+    dofs)`` and fixed dofs, from a scalar basis of its own that goes on return with the mesh's
+    cached mapping (the bodies one after the other: one basis's quadrature data at a time,
+    issue 28)."""
+    m = mesh.bodies[body]
+    scalar = Basis(m, ELEMENTS[order]())
+    vec = vector_dofs(scalar)
+    K = elasticity_matrix(scalar, E, nu)
+    side = interface_side(m, mesh.nodes[("contact_upper", "contact_lower")[body]], order, scalar)
+    if boundary == "half-plane":
+        fixed = vector_facet_dofs(scalar, vec, outer_facets(m))
+    else:
+        fixed = vector_facet_dofs(scalar, vec, facets_on(m, mesh.nodes[("top", "bottom")[body]]))
+    del scalar
+    drop_mapping_cache(m)
+    return vec, K, side, fixed
+
+
+def drop_mapping_cache(mesh: MeshQuad) -> None:
+    """Drop skfem's cached mapping of ``mesh``: it keeps the Jacobian at the quadrature points
+    of the bases built on the mesh (10 MB a body at cattaneo ring level 3) for as long as the
+    mesh lives, while only those bases read it; skfem builds it again when a basis needs it."""
+    vars(mesh).pop("_cached_mapping", None)
 
 
 def free_dofs(disc: Discretisation) -> tuple[np.ndarray, np.ndarray]:

@@ -21,8 +21,9 @@ All contact iterations then work with the small dense C.
 Full-field recovery (``Factor.pair_solve``): a pair load ``f`` is zero off the pair dofs, which
 the per-body factor orders last, so the forward solve ``L y = [0; f]`` is ``y = [0; L22^{-1} f]``
 (a dense triangular solve with the kept trailing block) and the displacement needs only the
-backward sweep ``L^T x = y`` through the sparse factor: half the work of a general solve, for
-all increments at once (multi-RHS).  ``L22`` is kept packed (``2n (2n + 1) / 2`` numbers per
+backward sweep ``L^T x = y`` through the sparse factor: half the work of a general solve, one
+dense triangular solve for all increments at once, the sweeps by blocks of increments
+(multi-RHS, ``RECOVERY_BLOCK``).  ``L22`` is kept packed (``2n (2n + 1) / 2`` numbers per
 body).
 
 Ordering of pair quantities: ``[t_0 .. t_{n-1}, n_0 .. n_{n-1}]`` (tangential x
@@ -46,6 +47,18 @@ from .supernodal import trailing_block
 
 #: Right-hand sides per blocked solve (memory vs BLAS-3 efficiency).
 RHS_BLOCK = 256
+#: Increments per backward sweep of the recovery (issue 28): the sweep's dense right-hand side
+#: and solution, (body dofs x columns) each, are held for one block of increments, not for all
+#: (cattaneo rings level 6, 42 increments: 2 x 0.17 GB instead of 2 x 0.45 GB; with blocks of
+#: 8 the recovery's peak RSS measured 4.2 GB, below the contact iterations' 5.1 GB).  Narrower
+#: blocks cost more sweeps through the factor (level 5 sweep CPU s: all 42 at once 2.3, blocks
+#: of 16 2.9, of 8 3.5).  A multiple of 8: CHOLMOD's BLAS takes the columns in groups (of 4 on
+#: this project's machine), a sweep's last, narrower group with other kernels whose sums differ
+#: in the last bits (1e-15 relative); blocks starting at multiples of the group width keep every
+#: column in the group it has in the all-at-once sweep, hence its numbers bit for bit (cattaneo
+#: rings level 2, 42 increments: blocks of 4, 8, 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6,
+#: 41 not; tests/unit/test_fem_condense.py).
+RECOVERY_BLOCK = 16
 #: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last).  CHOLMOD's
 #: nested dissection beats its default (AMD) once the pair rows dominate the fill: cattaneo
 #: rings, body 1, numeric factorisation CPU s (nnz L; Prescott kernels, see body_order) amd /
@@ -208,14 +221,15 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
         lam = np.atleast_2d(np.asarray(lam, dtype=float).T).T
         out, rows = pair_target(n, lam, out, rows)
         for (idx, perm, chol, packed, signs), sign in zip(parts, (1.0, -1.0), strict=True):
-            if signs is None:
-                out[rows[idx[perm]]] = backward_solve(chol, packed, sign * lam, idx.size)
-                continue
-            d = signs[perm][:, None]  # a mirror body: K_2^-1 = D K_1^-1 D
-            x = backward_solve(chol, packed, sign * d[-lam.shape[0]:] * lam, idx.size)
-            x *= d
-            out[rows[idx[perm]]] = x
-            del x
+            d = None if signs is None else signs[perm][:, None]  # a mirror: K_2^-1 = D K_1^-1 D
+            z = trailing_solve(packed, sign * lam if d is None else sign * d[-lam.shape[0]:] * lam)
+            target = rows[idx[perm]]
+            for cols in column_blocks(lam.shape[1], RECOVERY_BLOCK):
+                x = backward_solve(chol, z[:, cols], idx.size)
+                if d is not None:
+                    x *= d
+                out[target, cols] = x
+                del x
         return out
 
     return Factor(backend="cholmod", solve=solve, n=n, pair_solve=pair_solve), C
@@ -246,18 +260,28 @@ def body_solves(parts: list, b: np.ndarray) -> np.ndarray:
     return out.reshape(b.shape)
 
 
-def backward_solve(chol, packed: np.ndarray, f: np.ndarray, n: int) -> np.ndarray:
-    """``x = K_b^{-1} [0; f]`` (the body's permuted order, n dofs) for loads f (columns) on
-    the m trailing dofs: ``y = [0; L22^{-1} f]`` then ``L^T x = y`` (no forward sweep)."""
+def column_blocks(k: int, width: int) -> list[slice]:
+    """k columns cut into consecutive slices of ``width`` columns from column 0 (the last one
+    shorter when width does not divide k)."""
+    return [slice(j, min(j + width, k)) for j in range(0, k, width)]
+
+
+def trailing_solve(packed: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """``L22^{-1} f`` for loads f (columns) on a body's m trailing dofs, ``L22`` (m x m) unpacked
+    from ``packed`` for the one dense triangular solve of all columns and dropped at once."""
     m = f.shape[0]
     L22, info = dtpttr(m, packed, uplo="L")
     if info != 0:
         raise ConvergenceError(f"recovery: LAPACK tpttr failed (info={info})")
-    z = solve_triangular(L22, f, lower=True, check_finite=False)
-    del L22  # the unpacked block (0.6 GB at level 6) goes before y is allocated
-    y = np.zeros((n, f.shape[1]), order="F")  # CHOLMOD's layout: no copy on the way in
-    y[-m:] = z
-    del z
+    return solve_triangular(L22, f, lower=True, check_finite=False)
+
+
+def backward_solve(chol, z: np.ndarray, n: int) -> np.ndarray:
+    """``x = K_b^{-1} [0; f]`` (the body's permuted order, n dofs) from ``z = L22^{-1} f``
+    (:func:`trailing_solve`) of loads f (columns) on the m trailing dofs: ``L^T x = y`` with
+    ``y = [0; z]`` (no forward sweep)."""
+    y = np.zeros((n, z.shape[1]), order="F")  # CHOLMOD's layout: no copy on the way in
+    y[-z.shape[0]:] = z
     return chol.solve_Lt(y, use_LDLt_decomposition=False)
 
 

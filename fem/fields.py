@@ -1,11 +1,12 @@
 """Full-field recovery of every increment from the condensed solution.
 
-One blocked solve with the existing factor gives the clamped-top response of both
-bodies to the pair forces of all increments (with CHOLMOD's per-body factors only the backward
-sweep, ``Factor.pair_solve``); body 1 then gets the plate's rigid
-motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are recovered as
-``K1 u1`` on the top dofs; stresses are projected (L2) onto the nodal basis on demand, the
-increments asked for together in one multi-RHS solve with sparse strain operators.
+Multi-RHS solves with the existing factor give the clamped-top response of both bodies to the
+pair forces of all increments (with CHOLMOD's per-body factors only the backward sweep,
+``Factor.pair_solve``, by blocks of increments: ``fem.condense.RECOVERY_BLOCK``); body 1 then
+gets the plate's rigid motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are
+recovered as ``K1 u1`` on the top dofs (the rows of K1 the model kept); stresses are
+projected (L2) onto the nodal basis on demand, the increments asked for together in one
+multi-RHS solve with sparse strain operators.
 """
 
 from __future__ import annotations
@@ -16,20 +17,25 @@ import numpy as np
 from scipy.sparse import coo_matrix, csr_matrix
 
 from .bulk import compact, mass_matrix, vector_dofs
-from .condense import pair_loads
+from .condense import RECOVERY_BLOCK, column_blocks, pair_loads
 from .linsolve import factorize
 
 
 class FieldRecovery:
     """Displacements of both bodies for all increments; stresses computed lazily."""
 
-    def __init__(self, disc, U1: np.ndarray, U2: np.ndarray, backend: str = "auto"):
+    def __init__(self, disc, U1: np.ndarray, U2: np.ndarray, backend: str = "auto",
+                 reaction_rows=None):
+        """``reaction_rows``: body 1's stiffness rows of its top dofs ``disc.fixed[0]`` (None:
+        read from ``disc.stiffness``)."""
         self.disc = disc
         #: Sparse backend of the stress projections (the bulk's: CHOLMOD when available).
         self.backend = backend
         self.U = (U1, U2)
         top = disc.fixed[0]
-        F1 = disc.stiffness[0][top] @ U1  # the top rows of K1 U1 only
+        if reaction_rows is None:
+            reaction_rows = disc.stiffness[0][top]
+        F1 = reaction_rows @ U1  # the top rows of K1 U1 only
         xy = disc.bases[0].doflocs[:, top]
         is_x = top % 2 == 0
         rx = np.where(is_x[:, None], F1, 0.0)
@@ -43,7 +49,9 @@ class FieldRecovery:
 
     @classmethod
     def from_states(cls, model, states) -> FieldRecovery:
-        """Recover the full fields of a list of converged contact states."""
+        """Recover the full fields of a list of converged contact states (the model of
+        :func:`fem.history.build_model`); the temporaries are of one block of increments
+        (``fem.condense.RECOVERY_BLOCK``), the numbers those of all at once."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
         U = np.zeros((disc.n_dofs, lam.shape[1]))
@@ -53,14 +61,15 @@ class FieldRecovery:
             U[model.free] = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2,
                                                           lam))
         N1 = disc.bases[0].N
-        if model.far is not None:
-            U += model.far.displacement(lam)
         U1, U2 = U[:N1], U[N1:]  # views: no second copy of the fields
         loc = disc.bases[0].doflocs
         z = np.array([s.z for s in states]).T
-        U1[0::2] += z[0][None, :] - loc[1, 0::2, None] * z[2][None, :]  # plate's rigid motion
-        U1[1::2] += z[1][None, :] + loc[0, 1::2, None] * z[2][None, :]
-        return cls(disc, U1, U2, model.factor.backend)
+        for c in column_blocks(z.shape[1], RECOVERY_BLOCK):
+            if model.far is not None:
+                U[:, c] += model.far.displacement(lam[:, c])
+            U1[0::2, c] += z[0][None, c] - loc[1, 0::2, None] * z[2][None, c]  # plate's rigid
+            U1[1::2, c] += z[1][None, c] + loc[0, 1::2, None] * z[2][None, c]  # motion
+        return cls(disc, U1, U2, model.factor.backend, model.reaction_rows)
 
     def displacement(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Displacement dof vectors (body 1, body 2) of increment i."""
@@ -136,25 +145,29 @@ def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
     vector dof vector u (numbering :class:`fem.bulk.VectorDofs`) at the quadrature points of
     the scalar basis (rows ``(e, k)`` as in :func:`load_operator`; row ``(e, k)`` holds element
     e's vector dofs ``2 a + c`` in that order, the gradient of component c of vector shape
-    function ``(a, c)`` being scalar ``grad phi_a`` in row c; built in CSR form directly),
-    yielded one at a time with arrays of their own size (no view into a dense temporary
-    twice their size), so that a caller need not hold all three (issue 28)."""
+    function ``(a, c)`` being scalar ``grad phi_a`` in row c, exact zeros dropped; built in CSR
+    form directly), yielded one at a time, each built from the basis's gradients alone (a row
+    of ``eps_cc`` holds only the component-c dofs: no structural zeros, no stacked copy of the
+    gradients, 32-bit indices where they fit), so that a caller need not hold all three and
+    the temporaries are of one operator's size (issue 28)."""
     n_el, n_qp = scalar.dx.shape
     vec = vector_dofs(scalar)
     n_loc = vec.element_dofs.shape[0]
-    dofs = np.asarray(vec.element_dofs).T  # (n_el, n_loc)
-    indices = np.broadcast_to(dofs[:, None, :], (n_el, n_qp, n_loc)).ravel()
-    indptr = np.arange(0, n_el * n_qp * n_loc + 1, n_loc)
-    sgrad = np.stack([np.asarray(phi[0].grad) for phi in scalar.basis], axis=-1)  # (2, e, q, a)
-    for c, d in ((0, 0), (1, 1), (0, 1)):
-        g = np.zeros((n_el, n_qp, n_loc))
-        if c == d:  # eps_cc: d_c of component c
-            g[..., c::2] = sgrad[c]
-        else:  # eps_xy = (d_y u_x + d_x u_y) / 2
-            g[..., 0::2] = 0.5 * sgrad[1]
-            g[..., 1::2] = 0.5 * sgrad[0]
-        B = csr_matrix((g.ravel(), indices.copy(), indptr.copy()), shape=(n_el * n_qp, vec.N))
-        del g
+    itype = np.int32 if vec.N < np.iinfo(np.int32).max else np.int64
+    dofs = np.asarray(vec.element_dofs, dtype=itype).T  # (n_el, n_loc)
+    grad = [np.asarray(phi[0].grad) for phi in scalar.basis]  # views: (2, n_el, n_qp) each
+    # eps_cc: d_c of component c; eps_xy = (d_y u_x + d_x u_y) / 2
+    for parts in (((0, 0, 1.0),), ((1, 1, 1.0),), ((0, 1, 0.5), (1, 0, 0.5))):
+        local = sorted(2 * a + c for c, _, _ in parts for a in range(n_loc // 2))
+        g = np.empty((n_el, n_qp, len(local)))
+        for c, d, f in parts:
+            for a in range(n_loc // 2):
+                g[..., local.index(2 * a + c)] = grad[a][d] if f == 1.0 else f * grad[a][d]
+        indices = np.ascontiguousarray(
+            np.broadcast_to(dofs[:, None, local], (n_el, n_qp, len(local)))).ravel()
+        indptr = np.arange(0, n_el * n_qp * len(local) + 1, len(local), dtype=itype)
+        B = csr_matrix((g.ravel(), indices, indptr), shape=(n_el * n_qp, vec.N))
+        del g, indices
         B.eliminate_zeros()
         B = compact(B)
         yield B

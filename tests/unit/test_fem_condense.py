@@ -126,6 +126,43 @@ def test_recovered_fields_equal_a_coupled_solve_on_a_small_mesh():
         assert np.allclose(r_got, r_ref, rtol=0, atol=1e-10 * P0)
 
 
+@pytest.mark.parametrize("layout", ["tensor", "rings"])
+def test_recovery_by_blocks_of_increments_equals_all_at_once_bit_for_bit(monkeypatch, layout):
+    """The recovery's backward sweeps, far field and plate motion by blocks of increments (22
+    increments: blocks 8 + 8 + 6, and of RECOVERY_BLOCK) give the numbers of one block of all
+    increments bit for bit (tensor: two factors; rings: body 2 the mirror of body 1), and the
+    model's stiffness rows of the top give the reactions of the whole stiffness."""
+    import fem.condense as cd
+    import fem.fields as fields
+
+    P0, mu, E, nu = 0.01, 0.5, 1.0, 0.3
+    a = np.sqrt(2 * 3.64 * 0.01 * 100 / np.pi)
+    window = (-1.3 * a, 1.3 * a)
+    timings: dict = {}
+    tbm, _, disc = assemble_bodies(fem.MeshSpec(level=-2, layout=layout), window, (), E, nu,
+                                   timings)
+    settings = resolve_contact(None, E, tbm.h_min)
+    model = build_model(disc, lambda x: x**2 / 200.0, mu, window, settings, True, "cholmod",
+                        timings)
+    assert model.disc.stiffness is None  # dropped once factorised
+    schedule = load_schedule(P0, 0.002, None, fem.LoadPath(n_normal=4, n_tangential=6))
+    states = run_increments(model.prob, schedule, settings, None)
+    assert len(states) == 22 and cd.column_blocks(22, 8) == [slice(0, 8), slice(8, 16),
+                                                             slice(16, 22)]
+    default = FieldRecovery.from_states(model, states)
+    monkeypatch.setattr(cd, "RECOVERY_BLOCK", 8)
+    monkeypatch.setattr(fields, "RECOVERY_BLOCK", 8)
+    got = FieldRecovery.from_states(model, states)
+    monkeypatch.setattr(cd, "RECOVERY_BLOCK", len(states))
+    monkeypatch.setattr(fields, "RECOVERY_BLOCK", len(states))
+    ref = FieldRecovery.from_states(model, states)
+    whole = FieldRecovery(disc, *ref.U)  # reactions from the whole K1 of the caller's disc
+    for body in (0, 1):
+        assert np.array_equal(got.U[body], ref.U[body])
+        assert np.array_equal(default.U[body], ref.U[body])
+    assert np.array_equal(got._reactions, whole._reactions)
+
+
 def test_nested_dissection_ordering_of_large_bodies_gives_the_same_compliance(monkeypatch):
     import fem.condense as cd
 
