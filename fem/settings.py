@@ -53,8 +53,8 @@ SIZE_FACTOR = 8.0
 #: dominates (a) at levels -1 / 0, and its level-1 phase error keeps the free error on one side
 #: (+1.89e-3 / +2.92e-4 / +1.11e-4 / +1.16e-5). At level 1 both layouts are equally efficient
 #: (tensor +1.4e-4 with 26.5k DOFs, rings +1.7e-4 with 25.0k); the rings have fewer DOFs from level
-#: 2 (64k against 125k) and pay at level 3 (cattaneo: 3.1x less history time, 3.3x less memory,
-#: benchmarks/bench_fem.py).
+#: 2 (64k against 125k) and pay at level 3 (cattaneo: 3.9x less history time, 2.9x less peak
+#: memory than the tensor level 3 in one run of benchmarks/bench_fem.py, main 36a7227).
 LAYOUTS = ("rings", "tensor")
 DEFAULT_LAYOUT = "tensor"
 #: Default growth. The rings grow by ``1 + (growth - 1) 2**(-(level + 1) / 2)`` per layer
