@@ -52,12 +52,13 @@ RHS_BLOCK = 256
 #: (cattaneo rings level 6, 42 increments: 2 x 0.17 GB instead of 2 x 0.45 GB; with blocks of
 #: 8 the recovery's peak RSS measured 4.2 GB, below the contact iterations' 5.1 GB).  Narrower
 #: blocks cost more sweeps through the factor (level 5 sweep CPU s: all 42 at once 2.3, blocks
-#: of 16 2.9, of 8 3.5).  A multiple of 8: CHOLMOD's BLAS takes the columns in groups (of 4 on
-#: this project's machine), a sweep's last, narrower group with other kernels whose sums differ
-#: in the last bits (1e-15 relative); blocks starting at multiples of the group width keep every
-#: column in the group it has in the all-at-once sweep, hence its numbers bit for bit (cattaneo
-#: rings level 2, 42 increments: blocks of 4, 8, 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6,
-#: 41 not; tests/unit/test_fem_condense.py).
+#: of 16 2.9, of 8 3.5).  A multiple of 4: CHOLMOD's BLAS takes the columns in groups (of 4 on
+#: this project's machine, with OpenBLAS's Prescott and SkylakeX kernels alike), a sweep's
+#: last, narrower group with other kernels whose sums differ in the last bits (1e-15 relative);
+#: blocks starting at multiples of the group width keep every column in the group it has in
+#: the all-at-once sweep, hence its numbers bit for bit (cattaneo rings level 2, 42 increments:
+#: blocks of 4, 8, 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6, 41 not;
+#: tests/unit/test_fem_condense.py).
 RECOVERY_BLOCK = 16
 #: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last).  CHOLMOD's
 #: nested dissection beats its default (AMD) once the pair rows dominate the fill: cattaneo
@@ -349,8 +350,7 @@ def body_order(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
     method = INNER_ORDERING if Kb.shape[0] >= NESDIS_MIN_DOFS else "default"
     order = inner[analyze(graph, mode="simplicial", ordering_method=method).P()]
     size = np.diff(np.r_[first, Kb.shape[0]])[order]
-    dofs = np.repeat(first[order] - (np.cumsum(size) - size), size) + np.arange(size.sum())
-    return np.r_[dofs, gamma]
+    return np.r_[concat_ranges(first[order], size), gamma]
 
 
 def dof_groups(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
@@ -367,7 +367,7 @@ def dof_groups(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
     if cand.size:
         lens = count[cand]
         starts = np.cumsum(lens) - lens
-        at = np.repeat(ptr[cand] - starts, lens) + np.arange(lens.sum())  # column i's entries
+        at = concat_ranges(ptr[cand], lens)  # column i's entries
         same[cand] = np.logical_and.reduceat(ind[at] == ind[at + np.repeat(lens, lens)], starts)
     return np.r_[0, np.cumsum(~same)]
 
@@ -377,12 +377,17 @@ def group_graph(Kb: sp.csc_matrix, gid: np.ndarray, first: np.ndarray) -> sp.csc
     first dof's column, rows mapped to their groups; every dof of a group has that pattern)."""
     ptr = Kb.indptr
     lens = np.diff(ptr)[first]
-    starts = np.cumsum(lens) - lens
-    at = np.repeat(ptr[first] - starts, lens) + np.arange(lens.sum())
+    at = concat_ranges(ptr[first], lens)
     rows, cols = gid[Kb.indices[at]], np.repeat(np.arange(first.size), lens)
     keep = np.r_[True, (rows[1:] != rows[:-1]) | (cols[1:] != cols[:-1])]
     indptr = np.r_[0, np.cumsum(np.bincount(cols[keep], minlength=first.size))]
     return sp.csc_matrix((np.ones(keep.sum()), rows[keep], indptr), shape=(first.size,) * 2)
+
+
+def concat_ranges(starts: np.ndarray, lens: np.ndarray) -> np.ndarray:
+    """The integer ranges ``[starts_i, starts_i + lens_i)`` one after the other (the entries
+    of chosen CSC columns, the dofs of ordered groups)."""
+    return np.repeat(starts - (np.cumsum(lens) - lens), lens) + np.arange(lens.sum())
 
 
 def natural_cholesky(Kp: sp.csc_matrix):
