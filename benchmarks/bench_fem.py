@@ -13,16 +13,20 @@
    edge error (stage-1 end) and stick-edge error (max over the samples), both relative to the
    contact width, beside a reference row measured with Kratos (wall seconds, below).  Then
    least-squares exponents of every phase's time and of the memory growth against n (levels
-   >= FIT_FROM), the local exponents of the history time, the ring run that reaches the
-   tensor mesh's finest accuracy with its time and memory ratios, and the cheapest ring run at
-   level-4 accuracy against the tensor level 4 of issue 28.
+   >= FIT_FROM), the local exponents of the history time, the cheapest ring run that reaches
+   the tensor mesh's finest accuracy with its time and memory ratios, and the cheapest ring run
+   at level-4 accuracy against the tensor level 4 of issue 28.  The ring ladder runs at the
+   case's growth; ``--scan-growths`` adds ring runs at the finest tensor level with other
+   growths (the accuracy / cost study behind the level-3 ratios: a coarser grading that still
+   reaches the tensor's accuracy is the cheaper mesh for it), marked in the 'g' column and
+   left out of the exponents.
 2. Cost on the default mesh (issue 4): Hertz and double wedge, DOFs, assembly time, one plain
    factorisation + solve (reference), the whole three-stage history (>= 40 increments) and the
    ratio history / (factorisation + solve).  Targets: ratio <= 5, whole default Hertz history
    <= 20 s on 2 cores.
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_fem.py [--levels 0 1 2 3 4 5 6]
-         [--tensor-levels 0 1 2 3] [--max-gb 8] [--no-cost]
+         [--tensor-levels 0 1 2 3] [--scan-growths 1.3 1.4] [--max-gb 8] [--no-cost]
 (tensor level 4 needs ~14 GB: do not run it on a shared machine).
 Timings on a shared machine are noisy: compare ratios within one run.
 """
@@ -155,7 +159,8 @@ def level_row(level: int, layout: str, growth: float | None = None) -> dict:
     build_mesh(spec, window(case, an.normal), kinks(case))
     a, b = an.normal.zones[0]
     t = hist.timings["cpu"]
-    return dict(layout=layout, level=level, a_over_h=0.5 * (b - a) / hist.h_min,
+    return dict(layout=layout, level=level, growth=case.fem.growth,
+                a_over_h=0.5 * (b - a) / hist.h_min,
                 dofs=hist.n_dofs, nodes=hist.n_candidates, mesh=time.process_time() - c0,
                 assembly=t["assembly"], factor=t["factorisation+condensation"],
                 increments=t["increments"], recovery=t["recovery"], history=t["history"],
@@ -201,9 +206,16 @@ def exponent(n: list[float], y: list[float]) -> float:
     return float(np.polyfit(np.log(n), np.log(y), 1)[0])
 
 
-HEAD = (f"{'mesh':<7}{'lvl':>4}{'a/h':>6}{'DOFs':>9}{'n':>6}{'mesh s':>8}{'asm s':>7}"
+HEAD = (f"{'mesh':<7}{'lvl':>4}{'g':>7}{'a/h':>6}{'DOFs':>9}{'n':>6}{'mesh s':>8}{'asm s':>7}"
         f"{'fact s':>8}{'incr s':>8}{'rec s':>7}{'hist s':>8}{'cmp s':>7}{'peak MB':>9}{'FE MB':>7}"
         f"{'edge %':>9}{'stick %':>9}{'ord e':>7}{'ord s':>7}")
+#: Ring growths tried at the finest tensor level besides the case's (fem.settings.GROWTH, 1.2):
+#: coarser gradings reach the tensor level 3's accuracy with fewer DOFs there (cattaneo, level
+#: 3, growth 1.2 / 1.3 / 1.35 / 1.4: 154k / 98k / 82k / 72k DOFs, edge 4e-6 / 3.2e-5 / 5.3e-5 /
+#: 7.7e-5, stick 3.1e-5 / 1.6e-5 / 3.8e-5 / 6.1e-5 of the width; tensor 4.0e-5 / 7.0e-5), while at
+#: levels 0-2 the case's 1.2 is the more accurate per DOF (Hertz: level 1 at 1.2 beats level 2
+#: at 1.3 in width and peak pressure with 0.64x the DOFs), so the default stays.
+SCAN_GROWTHS = (1.3, 1.4)
 #: Levels from which the growth exponents are fitted (issue 28: history time from level 1 on).
 FIT_FROM = 1
 #: Phases whose growth exponent in n is printed.
@@ -214,7 +226,8 @@ def row_text(r: dict, prev: dict | None) -> str:
     """One line of the accuracy table (or what stopped the level)."""
     if "failed" in r:
         return f"{r['layout']:<7}{r['level']:>4}  {r['failed']}"
-    return (f"{r['layout']:<7}{r['level']:>4}{r['a_over_h']:>6.0f}{r['dofs']:>9}{r['nodes']:>6}"
+    return (f"{r['layout']:<7}{r['level']:>4}{r['growth']:>7.4g}{r['a_over_h']:>6.0f}"
+            f"{r['dofs']:>9}{r['nodes']:>6}"
             f"{r['mesh']:>8.2f}{r['assembly']:>7.2f}{r['factor']:>8.2f}{r['increments']:>8.2f}"
             f"{r['recovery']:>7.2f}{r['history']:>8.2f}{r['compare']:>7.2f}{r['peak']:>9.0f}"
             f"{r['fe_peak']:>7.0f}"
@@ -230,7 +243,8 @@ def local_exponent(a: dict, b: dict) -> float:
 def growth_text(layout: str, rows: list[dict]) -> str:
     """Least-squares exponents in n of every phase's CPU time and of the memory growth (levels
     >= FIT_FROM), and the local exponent of the history time between successive levels."""
-    ok = [r for r in rows if r["layout"] == layout and r["level"] >= FIT_FROM]
+    ok = [r for r in rows if r["layout"] == layout and r["level"] >= FIT_FROM
+          and not r.get("scan")]
     if len(ok) < 2:
         return f"{layout}: fewer than two levels >= {FIT_FROM}: no exponents"
     n = [r["nodes"] for r in ok]
@@ -244,11 +258,13 @@ def growth_text(layout: str, rows: list[dict]) -> str:
 
 
 def accuracy_table(levels: list[int], tensor_levels: list[int], max_gb: float,
-                   growth: float | None = None) -> None:
-    runs = [(lv, "rings") for lv in levels] + [(lv, "tensor") for lv in tensor_levels]
+                   growth: float | None = None, scan: tuple[float, ...] = ()) -> None:
+    runs = ([(lv, "rings", growth, False) for lv in levels]
+            + [(lv, "tensor", None, False) for lv in tensor_levels]
+            + [(max(tensor_levels), "rings", g, True) for g in scan if tensor_levels])
     rows = []
-    for lv, layout in runs:
-        rows.append(run_level(lv, layout, max_gb, growth))
+    for lv, layout, g, is_scan in runs:
+        rows.append(run_level(lv, layout, max_gb, g) | {"scan": is_scan})
         print(row_text(rows[-1], None), flush=True)
     print()
     print("Hertz (stage 1) + Cattaneo (stages 2-3), library case cattaneo; CPU seconds per "
@@ -256,13 +272,13 @@ def accuracy_table(levels: list[int], tensor_levels: list[int], max_gb: float,
           "history, before the comparison's metrics), errors of the width; ring "
           f"growth {'of the case' if growth is None else growth}")
     print(HEAD)
-    for layout in ("rings", "tensor"):
+    for layout, is_scan in (("rings", False), ("tensor", False), ("rings", True)):
         prev = None
-        for r in (r for r in rows if r["layout"] == layout):
-            print(row_text(r, prev))
+        for r in (r for r in rows if r["layout"] == layout and r["scan"] == is_scan):
+            print(row_text(r, None if is_scan else prev))
             prev = r
     for a_h, wall, edge, stick in KRATOS:
-        print(f"{'Kratos':<7}{'':>4}{a_h:>6}{'':>69}{wall:>8.1f}{'':>23}{100 * edge:>9.4f}"
+        print(f"{'Kratos':<7}{'':>11}{a_h:>6}{'':>69}{wall:>8.1f}{'':>23}{100 * edge:>9.4f}"
               f"{100 * stick:>9.4f}   (wall s)")
     done = [r for r in rows if "failed" not in r]
     for layout in ("rings", "tensor"):
@@ -288,7 +304,8 @@ def tensor_ratio_text(rows: list[dict]) -> str:
         return f"no ring run reaches tensor level {ref['level']}'s accuracy"
     best = min(good, key=lambda r: r["history"])
     return (f"tensor level {ref['level']} accuracy (edge {100 * ref['edge']:.4f} %, stick "
-            f"{100 * ref['stick']:.4f} %) at ring level {best['level']}: "
+            f"{100 * ref['stick']:.4f} %) at ring level {best['level']}, growth "
+            f"{best['growth']:g}: "
             f"{ref['history'] / best['history']:.1f}x less history time, "
             f"{ref['peak'] / best['peak']:.1f}x less peak memory "
             f"({ref['fe_peak'] / best['fe_peak']:.1f}x in the FE history alone), "
@@ -309,7 +326,8 @@ def level4_text(rows: list[dict]) -> str:
         return (f"no ring run reaches level-4 accuracy (edge and stick <= "
                 f"{100 * LEVEL4_ACCURACY:g} % of the width)")
     best = min(good, key=lambda r: r["history"])
-    return (f"level-4 accuracy at ring level {best['level']}: history {best['history']:.1f} s "
+    return (f"level-4 accuracy at ring level {best['level']}, growth {best['growth']:g}: "
+            f"history {best['history']:.1f} s "
             f"CPU ({TENSOR_L4_SECONDS / best['history']:.1f}x less than the tensor level 4's "
             f"{TENSOR_L4_SECONDS:g} s), peak {best['peak'] / 1024:.2f} GB (tensor "
             f"{TENSOR_L4_GB:g} GB)")
@@ -344,9 +362,12 @@ def main() -> None:
                     help="address-space cap per run (GB); a level that needs more says so")
     ap.add_argument("--growth", type=float, default=None,
                     help="growth of the ring meshes (default: the case's)")
+    ap.add_argument("--scan-growths", type=float, nargs="*", default=list(SCAN_GROWTHS),
+                    help="ring runs at the finest tensor level with these growths")
     ap.add_argument("--no-cost", action="store_true", help="skip the default-mesh cost table")
     args = ap.parse_args()
-    accuracy_table(args.levels, args.tensor_levels, args.max_gb, args.growth)
+    accuracy_table(args.levels, args.tensor_levels, args.max_gb, args.growth,
+                   tuple(args.scan_growths))
     if not args.no_cost:
         print()
         cost_table()
