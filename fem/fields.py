@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import numpy as np
-from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse import csr_matrix
 
 from .bulk import compact, mass_matrix, vector_dofs
 from .condense import RECOVERY_BLOCK, column_blocks, pair_loads
@@ -168,24 +168,34 @@ def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
         indptr = np.arange(0, n_el * n_qp * len(local) + 1, len(local), dtype=itype)
         B = csr_matrix((g.ravel(), indices, indptr), shape=(n_el * n_qp, vec.N))
         del g, indices
+        entries = B.nnz
         B.eliminate_zeros()
-        B = compact(B)
+        if B.nnz < entries:  # zeros dropped: arrays of B's own size (else they already are)
+            B = compact(B)
         yield B
         del B
 
 
 def load_operator(scalar) -> csr_matrix:
     """Sparse B with ``B @ f.ravel() = asm(LinearForm(f v), scalar)`` for a field f given at
-    the quadrature points (shape (n_elements, n_points)): B[dof, (e, k)] = phi(x_ek) dx_ek."""
+    the quadrature points (shape (n_elements, n_points)): B[dof, (e, k)] = phi(x_ek) dx_ek.
+
+    Built in CSR form directly (columns ascending in every row: the arrays ``coo.tocsr()``
+    gives, without its COO-sized temporaries, issue 28): an element's local dofs are distinct,
+    so sorting the (dof, element) pairs orders every row."""
     n_el, n_qp = scalar.dx.shape
-    cols = np.arange(n_el * n_qp).reshape(n_el, n_qp)
-    rows, cc, vals = [], [], []
+    dofs = np.asarray(scalar.element_dofs)  # (n_loc, n_el)
+    order = np.lexsort((np.tile(np.arange(n_el), dofs.shape[0]), dofs.ravel()))
+    local, el = np.divmod(order, n_el)
+    itype = np.int32 if max(scalar.N, n_el * n_qp + 1, order.size * n_qp) < 2**31 else np.int64
+    indices = (el.astype(itype)[:, None] * n_qp + np.arange(n_qp, dtype=itype)).ravel()
+    data = np.empty((order.size, n_qp))
     for i, phi in enumerate(scalar.basis):
-        rows.append(np.repeat(scalar.element_dofs[i], n_qp))
-        cc.append(cols.ravel())
-        vals.append((np.asarray(phi[0]) * scalar.dx).ravel())
-    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cc))),
-                      shape=(scalar.N, n_el * n_qp)).tocsr()
+        rows = local == i
+        data[rows] = (np.asarray(phi[0]) * scalar.dx)[el[rows]]
+    indptr = np.zeros(scalar.N + 1, itype)
+    np.cumsum(np.bincount(dofs.ravel(), minlength=scalar.N) * n_qp, out=indptr[1:])
+    return csr_matrix((data.ravel(), indices, indptr), shape=(scalar.N, n_el * n_qp))
 
 
 def von_mises(s: np.ndarray) -> np.ndarray:
