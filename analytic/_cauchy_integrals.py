@@ -27,8 +27,10 @@ NEAR_MARGIN = 1.05
 """Safety factor on the radius of the disc that pre-selects near targets (boundary sampling)."""
 SNAP = 1e-3
 """A pole's foot within SNAP x its distance of a panel end is put on the end."""
-PAIR_CHUNK = 256
-"""Near (target, panel) pairs per block of the refined sums."""
+REFINED_NODES = 2**15
+"""Sub-panel nodes (pairs x 2 x levels x PANEL_NODES) per block of the refined sums: the Legendre
+table is 16 x this many floats (4 MB; 256 pairs of any depth took up to 20 MB at the surface);
+a pair's sums do not depend on its block."""
 
 
 def _far(s: np.ndarray, WG: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -139,8 +141,9 @@ def _refined(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
     dF = np.empty_like(F)
     for L in np.unique(lev):
         sel = np.flatnonzero(lev == L)
-        for i in range(0, sel.size, PAIR_CHUNK):
-            k = sel[i:i + PAIR_CHUNK]
+        pairs = max(1, REFINED_NODES // (2 * int(L) * PANEL_NODES))
+        for i in range(0, sel.size, pairs):
+            k = sel[i:i + pairs]
             F[k], dF[k] = _graded_sums(rule, w[k], jp[k], tc[k], d[k], int(L))
     return F, dF
 

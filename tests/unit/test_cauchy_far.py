@@ -41,3 +41,28 @@ def test_far_sums_do_not_depend_on_the_row_block(monkeypatch, entries):
     (9, 4, [0, 4, 9]), (10, 4, [0, 4, 8, 10]), (3, 2, [0, 3])])
 def test_row_blocks_never_leave_a_single_row(n, rows, ends):
     assert ci._row_blocks(n, rows).tolist() == ends
+
+
+def test_stresses_do_not_depend_on_the_blocks_of_far_and_refined_sums(monkeypatch):
+    """analytic.stress below and at the surface (near pairs on graded sub-panels of many
+    levels) of a Cattaneo state: the same bits with one pair / two rows per block."""
+    import analytic
+    from analytic import profiles
+
+    A, P, mu = 4 * (1 - 0.3**2) / 2.0, 1.0, 0.4
+    st = analytic.solve_stick(analytic.solve_normal(profiles.cylinder(10.0), P, A), mu,
+                              0.5 * mu * P)
+    (a, b), = st.normal.zones
+    rng = np.random.default_rng(3)
+    x = rng.uniform(1.5 * a, 1.5 * b, 600)
+    y = -(b - a) * np.concatenate([rng.uniform(0, 1, 300), 10.0 ** rng.uniform(-12, -3, 300)])
+    xs = np.linspace(1.2 * a, 1.2 * b, 301)
+
+    def run():
+        f = analytic.stress(st, x, y, nu=0.3)
+        return np.stack([f.sxx, f.syy, f.sxy]).tobytes(), analytic.surface_stress(st, xs).tobytes()
+
+    ref = run()
+    monkeypatch.setattr(ci, "REFINED_NODES", 1)
+    monkeypatch.setattr(ci, "CHUNK_ENTRIES", 1)
+    assert run() == ref
