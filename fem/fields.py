@@ -128,11 +128,18 @@ class FieldRecovery:
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
         U = self.U[body][:, cols]
         exx, eyy, exy = Rxx @ U, Ryy @ U, Rxy @ U  # the loads of the strains
+        del U
         tr = exx + eyy
-        rhs = np.concatenate([lam * tr + 2 * mu * exx, lam * tr + 2 * mu * eyy, 2 * mu * exy,
-                              lam * tr], axis=1)
-        S = mass.solve(rhs).reshape(-1, 4, len(cols))
-        return [np.ascontiguousarray(S[:, :, j].T) for j in range(len(cols))]
+        k = len(cols)
+        rhs = np.empty((tr.shape[0], 4 * k), order="F")  # the solver's order: no copy of it
+        rhs[:, :k] = lam * tr + 2 * mu * exx
+        rhs[:, k:2 * k] = lam * tr + 2 * mu * eyy
+        rhs[:, 2 * k:3 * k] = 2 * mu * exy
+        rhs[:, 3 * k:] = lam * tr
+        del exx, eyy, exy, tr
+        S = mass.solve(rhs)  # column c k + j: component c of increment j
+        del rhs
+        return [np.ascontiguousarray(S[:, j::k].T) for j in range(k)]
 
 
 def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
