@@ -11,7 +11,7 @@ multi-RHS solve with sparse strain operators.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 from scipy.sparse import csr_matrix
@@ -19,6 +19,11 @@ from scipy.sparse import csr_matrix
 from .bulk import compact, mass_matrix, vector_dofs
 from .condense import RECOVERY_BLOCK, column_blocks, pair_loads
 from .linsolve import factorize
+
+#: Per strain operator (xx, yy, xy): its (component c, derivative d, factor) terms d_d u_c.
+STRAIN_PARTS = (((0, 0, 1.0),), ((1, 1, 1.0),), ((0, 1, 0.5), (1, 0, 0.5)))
+#: Order in which the projector builds the strain operators: eps_xy (twice the entries) first.
+XY_FIRST = (2, 0, 1)
 
 
 class FieldRecovery:
@@ -118,11 +123,15 @@ class FieldRecovery:
         if body not in self._projector:  # one factorisation and one operator per body
             scalar = self.disc.scalar_bases[body]
             load, ops = load_operator(scalar), []
-            for B in iter_strain_operators(scalar):  # one at a time (issue 28: level 5's peak)
+            # one at a time (issue 28: level 5's peak; no zip, whose result tuple would hold
+            # the last one while the next is built), the largest (eps_xy) first: its
+            # temporaries then sit beside the load operator alone
+            for B in iter_strain_operators(scalar, XY_FIRST):
                 ops.append((load @ B).tocsr())
                 del B
             del load
-            self._projector[body] = (factorize(self.mass(body), self.backend), tuple(ops))
+            self._projector[body] = (factorize(self.mass(body), self.backend),
+                                     tuple(ops[XY_FIRST.index(c)] for c in range(3)))
         mass, (Rxx, Ryy, Rxy) = self._projector[body]
         E, nu = self.disc.E, self.disc.nu
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
@@ -147,7 +156,8 @@ def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
     return tuple(iter_strain_operators(scalar))
 
 
-def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
+def iter_strain_operators(scalar, components: Sequence[int] = (0, 1, 2)
+                          ) -> Iterator[csr_matrix]:
     """Sparse ``(Bxx, Byy, Bxy)`` with ``B @ u`` the strains ``eps_xx, eps_yy, eps_xy`` of the
     vector dof vector u (numbering :class:`fem.bulk.VectorDofs`) at the quadrature points of
     the scalar basis (rows ``(e, k)`` as in :func:`load_operator`; row ``(e, k)`` holds element
@@ -156,7 +166,8 @@ def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
     form directly), yielded one at a time, each built from the basis's gradients alone (a row
     of ``eps_cc`` holds only the component-c dofs: no structural zeros, no stacked copy of the
     gradients, 32-bit indices where they fit), so that a caller need not hold all three and
-    the temporaries are of one operator's size (issue 28)."""
+    the temporaries are of one operator's size (issue 28); ``components``: which of them (0, 1,
+    2: xx, yy, xy) in which order."""
     n_el, n_qp = scalar.dx.shape
     vec = vector_dofs(scalar)
     n_loc = vec.element_dofs.shape[0]
@@ -164,7 +175,7 @@ def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
     dofs = np.asarray(vec.element_dofs, dtype=itype).T  # (n_el, n_loc)
     grad = [np.asarray(phi[0].grad) for phi in scalar.basis]  # views: (2, n_el, n_qp) each
     # eps_cc: d_c of component c; eps_xy = (d_y u_x + d_x u_y) / 2
-    for parts in (((0, 0, 1.0),), ((1, 1, 1.0),), ((0, 1, 0.5), (1, 0, 0.5))):
+    for parts in (STRAIN_PARTS[c] for c in components):
         local = sorted(2 * a + c for c, _, _ in parts for a in range(n_loc // 2))
         g = np.empty((n_el, n_qp, len(local)))
         for c, d, f in parts:

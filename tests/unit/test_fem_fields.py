@@ -114,3 +114,14 @@ def test_load_operator_equals_the_sorted_coo_assembly_and_skfem(order):
     f = np.random.default_rng(order).normal(size=(n_el, n_qp))
     want = asm(LinearForm(lambda v, w: w["f"] * v), scalar, f=f)
     np.testing.assert_allclose(B @ f.ravel(), want, rtol=0, atol=1e-13 * np.max(np.abs(want)))
+
+
+def test_strain_operators_in_any_order_are_the_same_operators():
+    from fem.fields import XY_FIRST, iter_strain_operators, strain_operators
+
+    m = build_mesh(fem.MeshSpec(level=-2, order=2, layout="rings"), (-1.0, 1.0))
+    scalar = discretise(m, 2, 2.0, 0.3).scalar_bases[1]
+    ref = strain_operators(scalar)
+    for c, B in zip(XY_FIRST, iter_strain_operators(scalar, XY_FIRST), strict=True):
+        for name in ("indptr", "indices", "data"):
+            assert np.array_equal(getattr(B, name), getattr(ref[c], name))
