@@ -53,9 +53,9 @@ def _far(s: np.ndarray, WG: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.n
 
 def _row_blocks(n: int, rows: int) -> np.ndarray:
     """Ends ``[0, ..., n]`` of blocks of ``rows`` (>= 2) rows, a last single row joined to the
-    block before: BLAS sums a one-row block as a vector, whose rounding differs from the matrix
-    kernel's, which gives every row the same bits whatever the block size (only a lone target,
-    ``n = 1``, is a vector)."""
+    block before: a one-row product is summed as a vector (BLAS gemv), with other rounding than
+    the matrix kernel, so joined every row has the same bits whatever the block size (only a
+    lone target, ``n = 1``, is summed as a vector)."""
     ends = list(range(0, n, rows)) + [n]
     if len(ends) > 2 and ends[-1] - ends[-2] == 1:
         del ends[-2]
