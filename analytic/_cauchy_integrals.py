@@ -20,27 +20,46 @@ MIN_POLE = 1e-13
 """Smallest pole distance (panel units) resolved; closer targets use this distance."""
 TARGET_CHUNK = 2048
 """Targets per block of the near-pair search."""
-CHUNK_ENTRIES = 2**21
-"""Target x node entries per block of the far-field sums (32 MB of complex)."""
+CHUNK_ENTRIES = 2**16
+"""Target x node entries per block of the far-field sums (1 MB of complex: cache-sized; 2**21
+took 64 MB at once and was ~25 % slower at 20k targets; the rows do not depend on the block)."""
 NEAR_MARGIN = 1.05
 """Safety factor on the radius of the disc that pre-selects near targets (boundary sampling)."""
 SNAP = 1e-3
 """A pole's foot within SNAP x its distance of a panel end is put on the end."""
-PAIR_CHUNK = 256
-"""Near (target, panel) pairs per block of the refined sums."""
+REFINED_NODES = 2**15
+"""Sub-panel nodes (pairs x 2 x levels x PANEL_NODES) per block of the refined sums: the Legendre
+table is 16 x this many floats (4 MB; 256 pairs of any depth took up to 20 MB at the surface);
+a pair's sums do not depend on its block."""
 
 
 def _far(s: np.ndarray, WG: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss sums of F and F' for every target over all nodes (n_targets, 2)."""
+    """Gauss sums of F and F' for every target over all nodes (n_targets, 2), in row blocks of
+    about CHUNK_ENTRIES kernel entries formed in one reused buffer (k1, then k1^2 in place)."""
     WG = WG.astype(complex)  # complex @ complex runs in BLAS
     F = np.empty((w.size, WG.shape[1]), complex)
     dF = np.empty_like(F)
-    rows = max(1, CHUNK_ENTRIES // max(s.size, 1))
-    for i in range(0, w.size, rows):
-        k1 = 1.0 / (s[None, :] - w[i:i + rows, None])
-        F[i:i + rows] = k1 @ WG
-        dF[i:i + rows] = (k1 * k1) @ WG
+    ends = _row_blocks(w.size, max(2, CHUNK_ENTRIES // max(s.size, 1)))
+    buf = np.empty((int(np.max(np.diff(ends), initial=0)), s.size), complex)
+    for i, j in zip(ends[:-1], ends[1:], strict=True):
+        k = buf[:j - i]
+        np.subtract(s[None, :], w[i:j, None], out=k)
+        np.divide(1.0, k, out=k)
+        F[i:j] = k @ WG
+        np.multiply(k, k, out=k)
+        dF[i:j] = k @ WG
     return F, dF
+
+
+def _row_blocks(n: int, rows: int) -> np.ndarray:
+    """Ends ``[0, ..., n]`` of blocks of ``rows`` (>= 2) rows, a last single row joined to the
+    block before: a one-row product is summed as a vector (BLAS gemv), with other rounding than
+    the matrix kernel, so joined every row has the same bits whatever the block size (only a
+    lone target, ``n = 1``, is summed as a vector)."""
+    ends = list(range(0, n, rows)) + [n]
+    if len(ends) > 2 and ends[-1] - ends[-2] == 1:
+        del ends[-2]
+    return np.asarray(ends)
 
 
 def _poles(rule: Rule, w: np.ndarray, jp: np.ndarray) -> np.ndarray:
@@ -122,8 +141,9 @@ def _refined(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
     dF = np.empty_like(F)
     for L in np.unique(lev):
         sel = np.flatnonzero(lev == L)
-        for i in range(0, sel.size, PAIR_CHUNK):
-            k = sel[i:i + PAIR_CHUNK]
+        pairs = max(1, REFINED_NODES // (2 * int(L) * PANEL_NODES))
+        for i in range(0, sel.size, pairs):
+            k = sel[i:i + pairs]
             F[k], dF[k] = _graded_sums(rule, w[k], jp[k], tc[k], d[k], int(L))
     return F, dF
 

@@ -11,14 +11,19 @@ multi-RHS solve with sparse strain operators.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import numpy as np
-from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse import csr_matrix
 
 from .bulk import compact, mass_matrix, vector_dofs
 from .condense import RECOVERY_BLOCK, column_blocks, pair_loads
 from .linsolve import factorize
+
+#: Per strain operator (xx, yy, xy): its (component c, derivative d, factor) terms d_d u_c.
+STRAIN_PARTS = (((0, 0, 1.0),), ((1, 1, 1.0),), ((0, 1, 0.5), (1, 0, 0.5)))
+#: Order in which the projector builds the strain operators: eps_xy (twice the entries) first.
+XY_FIRST = (2, 0, 1)
 
 
 class FieldRecovery:
@@ -118,21 +123,32 @@ class FieldRecovery:
         if body not in self._projector:  # one factorisation and one operator per body
             scalar = self.disc.scalar_bases[body]
             load, ops = load_operator(scalar), []
-            for B in iter_strain_operators(scalar):  # one at a time (issue 28: level 5's peak)
+            # one at a time (issue 28: level 5's peak; no zip, whose result tuple would hold
+            # the last one while the next is built), the largest (eps_xy) first: its
+            # temporaries then sit beside the load operator alone
+            for B in iter_strain_operators(scalar, XY_FIRST):
                 ops.append((load @ B).tocsr())
                 del B
             del load
-            self._projector[body] = (factorize(self.mass(body), self.backend), tuple(ops))
+            self._projector[body] = (factorize(self.mass(body), self.backend),
+                                     tuple(ops[XY_FIRST.index(c)] for c in range(3)))
         mass, (Rxx, Ryy, Rxy) = self._projector[body]
         E, nu = self.disc.E, self.disc.nu
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
         U = self.U[body][:, cols]
         exx, eyy, exy = Rxx @ U, Ryy @ U, Rxy @ U  # the loads of the strains
+        del U
         tr = exx + eyy
-        rhs = np.concatenate([lam * tr + 2 * mu * exx, lam * tr + 2 * mu * eyy, 2 * mu * exy,
-                              lam * tr], axis=1)
-        S = mass.solve(rhs).reshape(-1, 4, len(cols))
-        return [np.ascontiguousarray(S[:, :, j].T) for j in range(len(cols))]
+        k = len(cols)
+        rhs = np.empty((tr.shape[0], 4 * k), order="F")  # the solver's order: no copy of it
+        rhs[:, :k] = lam * tr + 2 * mu * exx
+        rhs[:, k:2 * k] = lam * tr + 2 * mu * eyy
+        rhs[:, 2 * k:3 * k] = 2 * mu * exy
+        rhs[:, 3 * k:] = lam * tr
+        del exx, eyy, exy, tr
+        S = mass.solve(rhs)  # column c k + j: component c of increment j
+        del rhs
+        return [np.ascontiguousarray(S[:, j::k].T) for j in range(k)]
 
 
 def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
@@ -140,7 +156,8 @@ def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
     return tuple(iter_strain_operators(scalar))
 
 
-def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
+def iter_strain_operators(scalar, components: Sequence[int] = (0, 1, 2)
+                          ) -> Iterator[csr_matrix]:
     """Sparse ``(Bxx, Byy, Bxy)`` with ``B @ u`` the strains ``eps_xx, eps_yy, eps_xy`` of the
     vector dof vector u (numbering :class:`fem.bulk.VectorDofs`) at the quadrature points of
     the scalar basis (rows ``(e, k)`` as in :func:`load_operator`; row ``(e, k)`` holds element
@@ -149,7 +166,8 @@ def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
     form directly), yielded one at a time, each built from the basis's gradients alone (a row
     of ``eps_cc`` holds only the component-c dofs: no structural zeros, no stacked copy of the
     gradients, 32-bit indices where they fit), so that a caller need not hold all three and
-    the temporaries are of one operator's size (issue 28)."""
+    the temporaries are of one operator's size (issue 28); ``components``: which of them (0, 1,
+    2: xx, yy, xy) in which order."""
     n_el, n_qp = scalar.dx.shape
     vec = vector_dofs(scalar)
     n_loc = vec.element_dofs.shape[0]
@@ -157,7 +175,7 @@ def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
     dofs = np.asarray(vec.element_dofs, dtype=itype).T  # (n_el, n_loc)
     grad = [np.asarray(phi[0].grad) for phi in scalar.basis]  # views: (2, n_el, n_qp) each
     # eps_cc: d_c of component c; eps_xy = (d_y u_x + d_x u_y) / 2
-    for parts in (((0, 0, 1.0),), ((1, 1, 1.0),), ((0, 1, 0.5), (1, 0, 0.5))):
+    for parts in (STRAIN_PARTS[c] for c in components):
         local = sorted(2 * a + c for c, _, _ in parts for a in range(n_loc // 2))
         g = np.empty((n_el, n_qp, len(local)))
         for c, d, f in parts:
@@ -168,24 +186,34 @@ def iter_strain_operators(scalar) -> Iterator[csr_matrix]:
         indptr = np.arange(0, n_el * n_qp * len(local) + 1, len(local), dtype=itype)
         B = csr_matrix((g.ravel(), indices, indptr), shape=(n_el * n_qp, vec.N))
         del g, indices
+        entries = B.nnz
         B.eliminate_zeros()
-        B = compact(B)
+        if B.nnz < entries:  # zeros dropped: arrays of B's own size (else they already are)
+            B = compact(B)
         yield B
         del B
 
 
 def load_operator(scalar) -> csr_matrix:
     """Sparse B with ``B @ f.ravel() = asm(LinearForm(f v), scalar)`` for a field f given at
-    the quadrature points (shape (n_elements, n_points)): B[dof, (e, k)] = phi(x_ek) dx_ek."""
+    the quadrature points (shape (n_elements, n_points)): B[dof, (e, k)] = phi(x_ek) dx_ek.
+
+    Built in CSR form directly (columns ascending in every row: the arrays ``coo.tocsr()``
+    gives, without its COO-sized temporaries, issue 28): an element's local dofs are distinct,
+    so sorting the (dof, element) pairs orders every row."""
     n_el, n_qp = scalar.dx.shape
-    cols = np.arange(n_el * n_qp).reshape(n_el, n_qp)
-    rows, cc, vals = [], [], []
+    dofs = np.asarray(scalar.element_dofs)  # (n_loc, n_el)
+    order = np.lexsort((np.tile(np.arange(n_el), dofs.shape[0]), dofs.ravel()))
+    local, el = np.divmod(order, n_el)
+    itype = np.int32 if max(scalar.N, n_el * n_qp + 1, order.size * n_qp) < 2**31 else np.int64
+    indices = (el.astype(itype)[:, None] * n_qp + np.arange(n_qp, dtype=itype)).ravel()
+    data = np.empty((order.size, n_qp))
     for i, phi in enumerate(scalar.basis):
-        rows.append(np.repeat(scalar.element_dofs[i], n_qp))
-        cc.append(cols.ravel())
-        vals.append((np.asarray(phi[0]) * scalar.dx).ravel())
-    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cc))),
-                      shape=(scalar.N, n_el * n_qp)).tocsr()
+        rows = local == i
+        data[rows] = (np.asarray(phi[0]) * scalar.dx)[el[rows]]
+    indptr = np.zeros(scalar.N + 1, itype)
+    np.cumsum(np.bincount(dofs.ravel(), minlength=scalar.N) * n_qp, out=indptr[1:])
+    return csr_matrix((data.ravel(), indices, indptr), shape=(scalar.N, n_el * n_qp))
 
 
 def von_mises(s: np.ndarray) -> np.ndarray:

@@ -87,3 +87,41 @@ def test_vector_numbering_and_strains_equal_skfem_vector_basis(order, boundary):
             assert np.array_equal(B.indptr, ref.indptr)
             assert np.array_equal(B.indices, ref.indices)
             assert np.array_equal(B.data, ref.data)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_load_operator_equals_the_sorted_coo_assembly_and_skfem(order):
+    """The CSR load operator built directly has the arrays of ``coo.tocsr()`` (the earlier
+    construction: same values, columns ascending in every row, same index type) and assembles
+    skfem's LinearForm of a quadrature-point field."""
+    from scipy.sparse import coo_matrix
+
+    from fem.fields import load_operator
+
+    m = build_mesh(fem.MeshSpec(level=-2, order=order, layout="rings"), (-1.0, 1.0))
+    scalar = discretise(m, order, 2.0, 0.3).scalar_bases[1]
+    n_el, n_qp = scalar.dx.shape
+    cols = np.arange(n_el * n_qp).reshape(n_el, n_qp)
+    ref = coo_matrix((np.concatenate([(np.asarray(phi[0]) * scalar.dx).ravel()
+                                      for phi in scalar.basis]),
+                      (np.concatenate([np.repeat(d, n_qp) for d in scalar.element_dofs]),
+                       np.tile(cols.ravel(), len(scalar.basis)))),
+                     shape=(scalar.N, n_el * n_qp)).tocsr()
+    B = load_operator(scalar)
+    for name in ("indptr", "indices", "data"):
+        got, want = getattr(B, name), getattr(ref, name)
+        assert got.dtype == want.dtype and np.array_equal(got, want), name
+    f = np.random.default_rng(order).normal(size=(n_el, n_qp))
+    want = asm(LinearForm(lambda v, w: w["f"] * v), scalar, f=f)
+    np.testing.assert_allclose(B @ f.ravel(), want, rtol=0, atol=1e-13 * np.max(np.abs(want)))
+
+
+def test_strain_operators_in_any_order_are_the_same_operators():
+    from fem.fields import XY_FIRST, iter_strain_operators, strain_operators
+
+    m = build_mesh(fem.MeshSpec(level=-2, order=2, layout="rings"), (-1.0, 1.0))
+    scalar = discretise(m, 2, 2.0, 0.3).scalar_bases[1]
+    ref = strain_operators(scalar)
+    for c, B in zip(XY_FIRST, iter_strain_operators(scalar, XY_FIRST), strict=True):
+        for name in ("indptr", "indices", "data"):
+            assert np.array_equal(getattr(B, name), getattr(ref[c], name))
