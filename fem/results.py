@@ -12,7 +12,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.polynomial import polynomial as P
 
 from .contact import OPEN, SLIP, STICK
 
@@ -145,7 +144,7 @@ def power_root(xs: np.ndarray, ys: np.ndarray, x_end: float, rising: int, degree
     scale = float(np.ptp(xs)) or 1.0
     deg = min(degree, n - 1)
     c = np.zeros(3)
-    c[:deg + 1] = P.polyfit((xs - x_end) / scale, ys, deg)
+    c[:deg + 1] = _polyfit((xs - x_end) / scale, ys, deg)
     roots = quadratic_roots(*c)
     ok = roots[(c[1] + 2 * c[2] * roots) * rising > 0]
     if ok.size == 0 or (skipped is not None and not _near_fit(c, scale, x_end, *skipped)):
@@ -153,14 +152,32 @@ def power_root(xs: np.ndarray, ys: np.ndarray, x_end: float, rising: int, degree
     return x_end + scale * float(ok[np.argmin(np.abs(ok))])
 
 
+def _polyfit(t: np.ndarray, y: np.ndarray, deg: int) -> np.ndarray:
+    """Least-squares polynomial coefficients (lowest first) of degree ``deg`` through (t, y):
+    the operations of ``numpy.polynomial.polynomial.polyfit`` (Vandermonde columns scaled to
+    unit norm, ``np.linalg.lstsq`` with rcond = len(t) eps; the same numbers to the bit) without
+    its argument checks and conversions, which cost more than the fit of a few points."""
+    v = np.empty((deg + 1, t.size))
+    v[0] = t * 0 + 1
+    for i in range(1, deg + 1):
+        v[i] = v[i - 1] * t
+    scl = np.sqrt(np.square(v).sum(1))
+    scl[scl == 0] = 1
+    return np.linalg.lstsq(v.T / scl, y, t.size * _EPS)[0] / scl
+
+
+_EPS = float(np.finfo(float).eps)
+
+
 def _near_fit(c: np.ndarray, scale: float, x_end: float, xk: np.ndarray, yk: np.ndarray
               ) -> bool:
     """Whether the points (xk, yk) lie within SKIP_SHIFT elements (along x) of the polynomial
     ``c`` in ``t = (x - x_end) / scale``; the element is the spacing of the points."""
     t = (xk - x_end) / scale
-    value, slope = P.polyval(t, c), P.polyval(t, P.polyder(c)) / scale
-    h = float(np.max(np.abs(np.diff(np.r_[xk, x_end])))) if xk.size > 1 else abs(
-        float(xk[0] - x_end)) or 1.0
+    c0, c1, c2 = c.tolist()
+    value, slope = c0 + (c1 + c2 * t) * t, (c1 + 2 * c2 * t) / scale  # Horner, as P.polyval
+    h = max(float(np.max(np.abs(np.diff(xk)))), abs(float(x_end - xk[-1]))) if xk.size > 1 \
+        else abs(float(xk[0] - x_end)) or 1.0
     with np.errstate(divide="ignore", invalid="ignore"):
         shift = np.abs((value - yk) / slope)
     return bool(np.all(shift <= SKIP_SHIFT * h))
@@ -447,13 +464,10 @@ def gap_edge(x: np.ndarray, gap: np.ndarray, status: np.ndarray, end: int, step:
     wide = run_nodes // GAP_OF_RUN >= GAP_WIDE
     fit = min(run_nodes // GAP_OF_RUN, GAP_FIT_MAX) if wide else GAP_FIT
     skip = GAP_SKIP_WIDE if wide else GAP_SKIP
-    nodes = []
-    j = end + step
-    while 0 <= j < x.size and status[j] == OPEN and np.isfinite(gap[j]) and \
-            len(nodes) < skip + fit:
-        nodes.append(j)
-        j += step
-    nodes = np.array(nodes[skip:], dtype=int)
+    ahead = end + step * np.arange(1, skip + fit + 1)
+    ahead = ahead[(ahead >= 0) & (ahead < x.size)]
+    usable = (status[ahead] == OPEN) & np.isfinite(gap[ahead])
+    nodes = ahead[skip:usable.size if usable.all() else int(np.argmin(usable))]
     if nodes.size < 2:
         return None
     root = power_root(x[nodes], np.maximum(gap[nodes], 0.0) ** (2 / 3), x[end], step,
