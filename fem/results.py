@@ -12,7 +12,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.polynomial import polynomial as P
 
 from .contact import OPEN, SLIP, STICK
 
@@ -124,8 +123,8 @@ KINK_JUMP = 0.4
 
 def smooth_prefix(y: np.ndarray) -> int:
     """Length of the leading part of ``y`` (ordered away from an edge) before a kink."""
-    d = np.diff(y)
-    for j in range(1, d.size):
+    d = np.diff(y).tolist()  # Python floats: the same arithmetic, without 0-d arrays
+    for j in range(1, len(d)):
         if abs(d[j] - d[j - 1]) > KINK_JUMP * abs(d[j - 1]):
             return j + 1
     return y.size
@@ -143,7 +142,9 @@ def power_root(xs: np.ndarray, ys: np.ndarray, x_end: float, rising: int, degree
         return None
     xs, ys = xs[:n], ys[:n]
     scale = float(np.ptp(xs)) or 1.0
-    c = np.r_[P.polyfit((xs - x_end) / scale, ys, min(degree, n - 1)), 0.0, 0.0][:3]
+    deg = min(degree, n - 1)
+    c = np.zeros(3)
+    c[:deg + 1] = _polyfit((xs - x_end) / scale, ys, deg)
     roots = quadratic_roots(*c)
     ok = roots[(c[1] + 2 * c[2] * roots) * rising > 0]
     if ok.size == 0 or (skipped is not None and not _near_fit(c, scale, x_end, *skipped)):
@@ -151,14 +152,32 @@ def power_root(xs: np.ndarray, ys: np.ndarray, x_end: float, rising: int, degree
     return x_end + scale * float(ok[np.argmin(np.abs(ok))])
 
 
+def _polyfit(t: np.ndarray, y: np.ndarray, deg: int) -> np.ndarray:
+    """Least-squares polynomial coefficients (lowest first) of degree ``deg`` through (t, y):
+    the operations of ``numpy.polynomial.polynomial.polyfit`` (Vandermonde columns scaled to
+    unit norm, ``np.linalg.lstsq`` with rcond = len(t) eps; the same numbers to the bit) without
+    its argument checks and conversions, which cost more than the fit of a few points."""
+    v = np.empty((deg + 1, t.size))
+    v[0] = t * 0 + 1
+    for i in range(1, deg + 1):
+        v[i] = v[i - 1] * t
+    scl = np.sqrt(np.square(v).sum(1))
+    scl[scl == 0] = 1
+    return np.linalg.lstsq(v.T / scl, y, t.size * _EPS)[0] / scl
+
+
+_EPS = float(np.finfo(float).eps)
+
+
 def _near_fit(c: np.ndarray, scale: float, x_end: float, xk: np.ndarray, yk: np.ndarray
               ) -> bool:
     """Whether the points (xk, yk) lie within SKIP_SHIFT elements (along x) of the polynomial
     ``c`` in ``t = (x - x_end) / scale``; the element is the spacing of the points."""
     t = (xk - x_end) / scale
-    value, slope = P.polyval(t, c), P.polyval(t, P.polyder(c)) / scale
-    h = float(np.max(np.abs(np.diff(np.r_[xk, x_end])))) if xk.size > 1 else abs(
-        float(xk[0] - x_end)) or 1.0
+    c0, c1, c2 = c.tolist()
+    value, slope = c0 + (c1 + c2 * t) * t, (c1 + 2 * c2 * t) / scale  # Horner, as P.polyval
+    h = max(float(np.max(np.abs(np.diff(xk)))), abs(float(x_end - xk[-1]))) if xk.size > 1 \
+        else abs(float(xk[0] - x_end)) or 1.0
     with np.errstate(divide="ignore", invalid="ignore"):
         shift = np.abs((value - yk) / slope)
     return bool(np.all(shift <= SKIP_SHIFT * h))
@@ -295,26 +314,45 @@ def is_noisy(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> b
     return rough > NOISY_ROUGHNESS and flips > NOISY_SIGN_FLIPS
 
 
-def _wls_root(t: np.ndarray, y: np.ndarray, sig: np.ndarray) -> tuple[float, float] | None:
-    """Root (t < 0 side rising inwards: f**2 falls towards +t) and its standard deviation of the
-    weighted least-squares quadratic (linear with 3 points) of y(t); None without one."""
-    deg = 2 if t.size >= 4 else 1
-    if t.size < deg + 1:
-        return None
-    A = np.vander(t, deg + 1, increasing=True) / sig[:, None]
-    c, *_ = np.linalg.lstsq(A, y / sig, rcond=None)
-    dof = t.size - deg - 1
-    r = y / sig - A @ c
-    s2 = float(r @ r) / dof if dof > 0 else 0.0
-    cov = s2 * np.linalg.pinv(A.T @ A)
-    c3 = np.r_[c, 0.0, 0.0][:3]
-    roots = quadratic_roots(*c3)
-    ok = roots[c3[1] + 2 * c3[2] * roots < 0]
-    if ok.size == 0:
-        return None
-    t0 = float(ok[np.argmin(np.abs(ok))])
-    g = t0 ** np.arange(deg + 1)
-    return t0, float(np.sqrt(max(g @ cov @ g, 0.0))) / abs(c3[1] + 2 * c3[2] * t0)
+def _wls_roots(t: np.ndarray, y: np.ndarray, sig: np.ndarray, skips: int
+               ) -> list[tuple[float, float] | None]:
+    """Per k < ``skips``: root (t < 0 side rising inwards: f**2 falls towards +t) and its
+    standard deviation of the weighted least-squares quadratic (linear with 3 points) of y(t)
+    through the points after the first k; None without one.  Each fit is its own lstsq; the
+    pseudo-inverses of their normal matrices (the covariance) are taken in one stacked call
+    (bit-identical to one call each: test_edge_noise)."""
+    basis, rhs = np.vander(t, 3, increasing=True) / sig[:, None], y / sig
+    out: list = [None] * skips
+    todo: dict[int, list] = {1: [], 2: []}
+    for k in range(min(skips, t.size)):
+        deg = 2 if t.size - k >= 4 else 1
+        if t.size - k < deg + 1:
+            continue
+        A, b = basis[k:, :deg + 1].copy(), rhs[k:].copy()
+        c = np.linalg.lstsq(A, b, rcond=None)[0]
+        c1, c2 = float(c[1]), float(c[2]) if deg == 2 else 0.0
+        roots = quadratic_roots(float(c[0]), c1, c2)
+        ok = roots[c1 + 2 * c2 * roots < 0]
+        if ok.size == 0:
+            continue
+        dof = t.size - k - deg - 1
+        r = b - A @ c
+        s2 = float(r @ r) / dof if dof > 0 else 0.0
+        t0 = float(ok[np.argmin(np.abs(ok))])
+        todo[deg].append((k, A, s2, t0, abs(c1 + 2 * c2 * t0)))
+    for deg, fits in todo.items():
+        if not fits:
+            continue
+        inverses = np.linalg.pinv(np.stack([A.T @ A for _, A, _, _, _ in fits]))
+        for (k, _, s2, t0, slope), inv in zip(fits, inverses, strict=True):
+            cov = s2 * inv
+            g = t0 ** _POWERS[deg]
+            out[k] = (t0, float(np.sqrt(max(g @ cov @ g, 0.0))) / slope)
+    return out
+
+
+#: Exponents of the basis 1, t, t**2 of :func:`_wls_roots`' line (deg 1) and quadratic (deg 2).
+_POWERS = {1: np.arange(2), 2: np.arange(3)}
 
 
 def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
@@ -328,17 +366,15 @@ def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
     noise (default f itself: relative noise of the pressure; mu p for a stick edge, where
     mu p - |q| -> 0 but its noise does not)."""
     nodes = _band(run, step, np.maximum(f, 0.0))
-    fits = []
-    while True:
-        fits.append(_band_fit(x, f, nodes, step, scale))
-        if nodes.size // 2 < BAND_MIN:
-            break
+    fit = _band_fit(x, f, nodes, step, scale)
+    while nodes.size // 2 >= BAND_MIN:  # the half band's fit is computed only when needed
         nodes = nodes[:nodes.size // 2]
-    for a, b in zip(fits, fits[1:], strict=False):
-        if math.isfinite(a[0]) and math.isfinite(b[0]) and abs(a[0] - b[0]) <= math.hypot(
-                a[1], b[1]) * BAND_HALVE:
-            return a
-    return fits[-1]
+        half = _band_fit(x, f, nodes, step, scale)
+        if math.isfinite(fit[0]) and math.isfinite(half[0]) and abs(fit[0] - half[0]) <= \
+                math.hypot(fit[1], half[1]) * BAND_HALVE:
+            return fit
+        fit = half
+    return fit
 
 
 def _band_fit(x: np.ndarray, f: np.ndarray, nodes: np.ndarray, step: int,
@@ -352,7 +388,7 @@ def _band_fit(x: np.ndarray, f: np.ndarray, nodes: np.ndarray, step: int,
     sc = np.abs(fn if scale is None else scale[nodes])
     floor = BAND_NOISE_FLOOR * float(np.max(sc)) or 1.0
     sig = np.maximum(fn, floor) * np.maximum(sc, floor)
-    fits = [_wls_root(t[k:], fn[k:] ** 2, sig[k:]) for k in range(BAND_SKIPS)]
+    fits = _wls_roots(t, fn ** 2, sig, BAND_SKIPS)
     k = next((k for k in range(BAND_SKIPS - 1) if fits[k] and fits[k + 1] and
               abs(fits[k][0] - fits[k + 1][0]) <= BAND_COVER * math.hypot(
                   fits[k][1], fits[k + 1][1]) + BAND_AGREE), None)
@@ -428,13 +464,10 @@ def gap_edge(x: np.ndarray, gap: np.ndarray, status: np.ndarray, end: int, step:
     wide = run_nodes // GAP_OF_RUN >= GAP_WIDE
     fit = min(run_nodes // GAP_OF_RUN, GAP_FIT_MAX) if wide else GAP_FIT
     skip = GAP_SKIP_WIDE if wide else GAP_SKIP
-    nodes = []
-    j = end + step
-    while 0 <= j < x.size and status[j] == OPEN and np.isfinite(gap[j]) and \
-            len(nodes) < skip + fit:
-        nodes.append(j)
-        j += step
-    nodes = np.array(nodes[skip:], dtype=int)
+    ahead = end + step * np.arange(1, skip + fit + 1)
+    ahead = ahead[(ahead >= 0) & (ahead < x.size)]
+    usable = (status[ahead] == OPEN) & np.isfinite(gap[ahead])
+    nodes = ahead[skip:usable.size if usable.all() else int(np.argmin(usable))]
     if nodes.size < 2:
         return None
     root = power_root(x[nodes], np.maximum(gap[nodes], 0.0) ** (2 / 3), x[end], step,

@@ -15,6 +15,7 @@ from fem.results import (
     OPEN,
     SLIP,
     STICK,
+    _wls_roots,
     contact_and_stick,
     edge_estimate,
     is_noisy,
@@ -107,6 +108,27 @@ def test_smooth_data_keep_sqrt_edge_exactly(phase):
         e, u = edge_estimate(x, p, run, step)
         assert e == sqrt_edge(x, p, run, step)
         assert 0 <= u < 0.01 * h
+
+
+@pytest.mark.parametrize("n", [12, 5])
+def test_band_fits_skipping_end_nodes_are_the_fits_of_the_shorter_data(n):
+    """_wls_roots fits y(t) once per number k of skipped end points, with the covariances of all
+    fits from one stacked pseudo-inverse: each fit equals, to the last bit, the fit of the data
+    without those points (n = 5: quadratics and a line through the last 3 points); an exact
+    quadratic gives its root next to the end and a zero standard deviation."""
+    t0 = 0.37
+    t = -np.arange(float(n))
+    y = (t0 - t) * (1.0 - 0.03 * t)  # falls towards +t through t0; its other root is far
+    sig = np.random.default_rng(3).uniform(0.5, 2.0, n)
+    for k, fit in enumerate(_wls_roots(t, y, sig, 3)):
+        if n - k >= 4:  # a quadratic: exact
+            assert fit[0] == pytest.approx(t0, abs=1e-12)
+            assert fit[1] < 1e-9
+    noisy = y * (1.0 + 0.01 * np.random.default_rng(4).uniform(-1, 1, n))
+    fits = _wls_roots(t, noisy, sig, 3)
+    for k in range(3):
+        assert fits[k] == _wls_roots(t[k:], noisy[k:], sig[k:], 1)[0]
+        assert fits[k][1] > 0
 
 
 def cattaneo(n: int, phase: float, c: float, mu: float = 0.3, noisy: bool = True):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy.polynomial import polynomial as P
 
 from fem.results import (
     BAND_OF_RUN,
@@ -20,6 +21,7 @@ from fem.results import (
     OPEN,
     SLIP,
     STICK,
+    _polyfit,
     contact_and_stick,
     gap_edge,
     power_root,
@@ -217,3 +219,12 @@ def test_a_kink_next_to_the_edge_falls_back_to_the_outermost_nodes():
     i0, i1 = run_of(f)
     assert x[i1 - 1] > kink > x[i1 - 2]
     assert sqrt_edge(x, f, (i0, i1), +1) == pytest.approx(b, abs=EXACT * (x[1] - x[0]))
+
+
+@pytest.mark.parametrize("deg, n", [(1, 2), (1, 3), (1, 7), (2, 3), (2, 7), (2, 40)])
+def test_polyfit_is_numpys_to_the_bit(deg, n):
+    """power_root's fit takes polyfit's own steps without its checks: the same coefficients."""
+    rng = np.random.default_rng(n + deg)
+    t = np.sort(rng.uniform(-1.0, 0.0, n))
+    y = rng.uniform(0.0, 2.0, n)
+    assert np.array_equal(_polyfit(t, y, deg), P.polyfit(t, y, deg))
