@@ -78,10 +78,12 @@ def sign_from_d(d: np.ndarray) -> np.ndarray:
 
 
 def w_abs(x: np.ndarray, edges: np.ndarray, eps: np.ndarray, skip: np.ndarray | None = None):
-    """``prod |x - e_i|^eps_i`` over the edges not in ``skip`` (boolean mask)."""
+    """``prod |x - e_i|^eps_i`` over the edges not in ``skip`` (boolean mask); an x on an edge
+    gives the limit, 0 (eps_i > 0) or inf (eps_i < 0), without a warning."""
     use = np.ones(edges.size, bool) if skip is None else ~skip
     diff = np.abs(np.asarray(x)[..., None] - edges[use])
-    return np.exp(np.sum(eps[use] * np.log(diff), axis=-1))
+    with np.errstate(divide="ignore"):
+        return np.exp(np.sum(eps[use] * np.log(diff), axis=-1))
 
 
 def zone_signs(pinned: Sequence[bool]) -> list[float]:

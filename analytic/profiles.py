@@ -83,12 +83,15 @@ def _arc(rho: float, x_tan: float, side: int, lo: float, hi: float, lift: float)
         t2 = (x - x_tan) ** 2
         return lift + t2 / (rho + np.sqrt(np.maximum(rho**2 - t2, 0.0)))
 
-    def dh(x):  # +-inf at the arc's vertical ends (|x - x_tan| = rho), by design
-        with np.errstate(divide="ignore"):
+    # dh, d2h: +-inf at the arc's vertical ends (|x - x_tan| = rho) and NaN beyond them, outside
+    # the piece's reach, where a Newton start or trial of the zone edges can put a gap
+    # quadrature node (analytic._newton refuses a non-finite residual), by design: no warning
+    def dh(x):
+        with np.errstate(divide="ignore", invalid="ignore"):
             return (x - x_tan) / np.sqrt(rho**2 - (x - x_tan) ** 2)
 
     def d2h(x):
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):
             return rho**2 / (rho**2 - (x - x_tan) ** 2) ** 1.5
 
     reach = (x_tan - 0.999 * rho, x_tan + 0.999 * rho)

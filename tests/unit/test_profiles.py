@@ -112,6 +112,17 @@ def test_circular_corner_is_vertical_at_its_ends_without_a_warning() -> None:
         np.array([-1.5]))[0] == -np.inf
 
 
+def test_circular_corner_beyond_its_vertical_end_is_nan_without_a_warning() -> None:
+    """Beyond the arc (|x - x_tan| > rho: outside the piece's reach, where a Newton start of the
+    zone edges can put a gap node, audit seed 52) slope and curvature are undefined: NaN,
+    which the Newton iteration refuses, not an invalid-value warning."""
+    arc = profiles.flat_punch(-0.5, 0.5, corner_radius=1.0).pieces[-1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        slope, curvature = arc.dh(np.array([1.7])), arc.d2h(np.array([1.7]))
+    assert np.isnan(slope[0]) and np.isnan(curvature[0])
+
+
 def test_wedge_and_double_wedge_kinks() -> None:
     assert profiles.wedge(0.1, 0.2, apex=0.3).kinks == (0.3,)
     assert profiles.double_wedge(2.0, 0.1, 0.2).kinks == (-2.0, 0.0, 2.0)

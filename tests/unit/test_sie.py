@@ -10,6 +10,8 @@ Known integrals (Gradshteyn & Ryzhik 3.196.3, 3.121; elementary with ``x = m - r
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy.special import beta as beta_fn
@@ -167,6 +169,18 @@ def test_w_abs_skips_selected_edges() -> None:
     assert w_abs(x, edges, eps)[0] == pytest.approx(np.sqrt(1.5 / 1.5), rel=ROUNDOFF)
     skip = np.array([True, False])
     assert w_abs(x, edges, eps, skip)[0] == pytest.approx(1 / np.sqrt(1.5), rel=ROUNDOFF)
+
+
+def test_w_abs_on_an_edge_is_its_limit_without_a_warning() -> None:
+    """A point on an edge (a graded quadrature node there, audit seed 69): |x - e|^eps is 0
+    for eps > 0 and inf for eps < 0, not a divide-by-zero warning."""
+    edges = np.array([-1.0, 2.0])
+    x = np.array([-1.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        zero = w_abs(x, edges, np.array([0.5, -0.5]))[0]
+        inf = w_abs(x, edges, np.array([-0.5, 0.5]))[0]
+    assert zero == 0.0 and inf == np.inf
 
 
 def test_layout_counts() -> None:
