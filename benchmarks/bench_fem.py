@@ -209,12 +209,9 @@ def exponent(n: list[float], y: list[float]) -> float:
 HEAD = (f"{'mesh':<7}{'lvl':>4}{'g':>7}{'a/h':>6}{'DOFs':>9}{'n':>6}{'mesh s':>8}{'asm s':>7}"
         f"{'fact s':>8}{'incr s':>8}{'rec s':>7}{'hist s':>8}{'cmp s':>7}{'peak MB':>9}{'FE MB':>7}"
         f"{'edge %':>9}{'stick %':>9}{'ord e':>7}{'ord s':>7}")
-#: Ring growths tried at the finest tensor level besides the case's (fem.settings.GROWTH, 1.2):
-#: coarser gradings reach the tensor level 3's accuracy with fewer DOFs there (cattaneo, level
-#: 3, growth 1.2 / 1.3 / 1.35 / 1.4: 154k / 98k / 82k / 72k DOFs, edge 4e-6 / 3.2e-5 / 5.3e-5 /
-#: 7.7e-5, stick 3.1e-5 / 1.6e-5 / 3.8e-5 / 6.1e-5 of the width; tensor 4.0e-5 / 7.0e-5), while at
-#: levels 0-2 the case's 1.2 is the more accurate per DOF (Hertz: level 1 at 1.2 beats level 2
-#: at 1.3 in width and peak pressure with 0.64x the DOFs), so the default stays.
+#: Ring growths tried at the finest tensor level besides the case's: coarser gradings reach the
+#: tensor level 3's accuracy with fewer DOFs there, while the default stays for levels 0-2 (the
+#: measurements are beside fem.settings.GROWTH).
 SCAN_GROWTHS = (1.3, 1.4)
 #: Levels from which the growth exponents are fitted (issue 28: history time from level 1 on).
 FIT_FROM = 1
@@ -244,7 +241,7 @@ def growth_text(layout: str, rows: list[dict]) -> str:
     """Least-squares exponents in n of every phase's CPU time and of the memory growth (levels
     >= FIT_FROM), and the local exponent of the history time between successive levels."""
     ok = [r for r in rows if r["layout"] == layout and r["level"] >= FIT_FROM
-          and not r.get("scan")]
+          and not r["scan"]]
     if len(ok) < 2:
         return f"{layout}: fewer than two levels >= {FIT_FROM}: no exponents"
     n = [r["nodes"] for r in ok]
