@@ -192,7 +192,7 @@ def matvec(prob: InterfaceProblem, sets: Sets, X: np.ndarray) -> np.ndarray:
     comp = np.r_[np.flatnonzero(st == STICK), np.flatnonzero(st > OPEN) + n]
     k = np.where(comp < n, prob.k_t, prob.k_n)
     out[comp] = (
-        compliance_product(prob.C, lam, comp)
+        compliance_product(prob.C, lam, comp, prob.split)
         + prob.plate_matrix()[comp] @ z
         + lam[comp] / (prob.w[comp % n] * k)[col]
     )
@@ -206,10 +206,11 @@ def matvec(prob: InterfaceProblem, sets: Sets, X: np.ndarray) -> np.ndarray:
 def relative_displacement(prob: InterfaceProblem, x: np.ndarray) -> np.ndarray:
     """``d = C lam + B z`` at every pair for the solution x."""
     n = prob.n
-    return compliance_product(prob.C, x[: 2 * n]) + prob.plate_matrix() @ x[2 * n :]
+    return compliance_product(prob.C, x[: 2 * n], None, prob.split) + prob.plate_matrix() @ x[2 * n :]
 
 
-def compliance_product(C: np.ndarray, lam: np.ndarray, rows: np.ndarray | None = None):
+def compliance_product(C: np.ndarray, lam: np.ndarray, rows: np.ndarray | None = None,
+                       split: int | None = None):
     """``(C @ lam)[rows]`` (all rows if None; ``rows`` sorted), reading only the columns of C
     where lam has non-zero rows (the active pairs of an iterate, a few changed rows of a
     reference solve).  Sets of pairs are a few runs of neighbours (contact and stick zones):
@@ -217,22 +218,30 @@ def compliance_product(C: np.ndarray, lam: np.ndarray, rows: np.ndarray | None =
     nz = np.flatnonzero(np.any(lam != 0, axis=1) if lam.ndim == 2 else lam != 0)
     rows = np.arange(C.shape[0]) if rows is None else rows
     out = np.zeros((rows.size, *lam.shape[1:]))
-    col_runs, row_runs = index_runs(nz), index_runs(rows)
+    col_runs, row_runs = index_runs(nz, split), index_runs(rows, split)
     if len(col_runs) * len(row_runs) > MAX_BLOCKS:
-        return C[np.ix_(rows, nz)] @ lam[nz]
+        if split is None:
+            return C[np.ix_(rows, nz)] @ lam[nz]
+        for lower in (True, False):  # the blocks across the halves are zero
+            r, c = (rows < split) == lower, nz[(nz < split) == lower]
+            if r.any() and c.size:
+                out[r] = C[np.ix_(rows[r], c)] @ lam[c]
+        return out
     at = 0
     for r0, r1 in row_runs:
         for c0, c1 in col_runs:
-            out[at : at + r1 - r0] += C[r0:r1, c0:c1] @ lam[c0:c1]
+            if split is None or (r0 < split) == (c0 < split):
+                out[at : at + r1 - r0] += C[r0:r1, c0:c1] @ lam[c0:c1]
         at += r1 - r0
     return out
 
 
-def index_runs(idx: np.ndarray) -> list[tuple[int, int]]:
-    """Maximal runs ``[start, stop)`` of consecutive integers in the sorted array idx."""
+def index_runs(idx: np.ndarray, split: int | None = None) -> list[tuple[int, int]]:
+    """Maximal runs ``[start, stop)`` of consecutive integers in the sorted array idx (cut
+    at ``split`` too if given)."""
     if idx.size == 0:
         return []
-    cut = np.flatnonzero(np.diff(idx) != 1) + 1
+    cut = np.flatnonzero((np.diff(idx) != 1) | ((idx[1:] == split) if split else False)) + 1
     starts, ends = np.r_[idx[0], idx[cut]], np.r_[idx[cut - 1], idx[-1]] + 1
     return list(zip(starts.tolist(), ends.tolist(), strict=True))
 
@@ -373,15 +382,18 @@ def update(ref: Reference, prob: InterfaceProblem, sets: Sets, J: np.ndarray,
 
 @dataclass(eq=False)
 class Reference:
-    """A factorised reference system: its sets, row kinds, active/open index split, the LU of
-    the active block, the cached columns of ``A0^{-1} E_J``, the current update (rows J) and
-    the last solution ``A0^{-1} b'`` for the reference's own right-hand side."""
+    """A factorised reference system: its sets, row kinds, the diagonal blocks of its active
+    rows (``blocks``: index arrays, ``lus``: their LU factors; one block, or with a decoupled
+    compliance the normal block and then the tangential one), the open rows ``opn``, the
+    cached columns of ``A0^{-1} E_J``, the current update (rows J) and the last solution
+    ``A0^{-1} b'`` for the reference's own right-hand side."""
 
     sets: Sets
     kinds: np.ndarray
-    act: np.ndarray
+    blocks: tuple
+    lus: tuple
     opn: np.ndarray
-    lu: tuple
+    slip: np.ndarray
     columns: dict = field(default_factory=dict)
     work: Update = field(init=False)
     base: tuple | None = None  # (b', A0^{-1} b') of the last base solve
@@ -390,12 +402,23 @@ class Reference:
         self.work = Update(self.kinds.size)
 
     def solve(self, prob: InterfaceProblem, B: np.ndarray) -> np.ndarray:
-        """``A0^{-1} B`` by block back-substitution (B: (N,) or (N, k))."""
-        diag = open_scale(prob)
+        """``A0^{-1} B`` by block substitution (B: (N,) or (N, k)): the open rows, then the
+        active block; with a decoupled compliance the normal block, the slip rows
+        ``lam_t = B + mu s lam_n`` and the tangential block of the sticking pairs."""
+        col = (slice(None),) + (None,) * (B.ndim - 1)
         X = np.zeros_like(B)
-        X[self.opn] = B[self.opn] / (diag[self.opn] if B.ndim == 1 else diag[self.opn, None])
-        a12x = matvec(prob, self.sets, X)[self.act] if self.opn.size else 0.0
-        X[self.act] = lu_solve(self.lu, B[self.act] - a12x, check_finite=False)
+        X[self.opn] = B[self.opn] / open_scale(prob)[self.opn][col]
+        F = B - matvec(prob, self.sets, X) if self.opn.size else B.copy()
+        X[self.blocks[0]] = lu_solve(self.lus[0], F[self.blocks[0]], check_finite=False)
+        if len(self.blocks) == 1:
+            return X
+        s, tb = self.slip, self.blocks[1]
+        if s.size:
+            Xs = np.zeros_like(B)
+            Xs[s] = F[s] + (prob.mu * self.sets.sign[s])[col] * X[s + prob.n]
+            X[s] = Xs[s]
+            F[tb] -= matvec(prob, self.sets, Xs)[tb]
+        X[tb] = lu_solve(self.lus[1], F[tb], check_finite=False)
         return X
 
     def base_solution(self, prob: InterfaceProblem, b: np.ndarray, b_ref: np.ndarray,
@@ -429,14 +452,25 @@ class Reference:
 
 
 def factor_reference(prob: InterfaceProblem, sets: Sets) -> Reference:
-    """LU of the active block of the full system of ``sets`` (NotConverged if singular)."""
+    """LU of the active rows of the full system of ``sets`` (NotConverged if singular): one
+    block, or, with a decoupled compliance (``prob.split``: C's tangential-normal blocks are
+    zero), the normal block (``lam_n``, ``v_p``, theta: the normal rows and the P and M rows)
+    and the tangential block of the sticking pairs (``lam_t``, ``u_p``), the slip rows
+    ``lam_t = mu s lam_n`` solved between them: LUs of half the size or less."""
     n = prob.n
     a = np.flatnonzero(sets.status > OPEN)
-    act = np.r_[a, a + n, 2 * n + np.arange(prob.n_plate)]
-    opn = np.setdiff1d(np.arange(2 * n + prob.n_plate), act)
-    A11 = rows(prob, sets, act)[:, act]
-    lu = checked_lu(A11, f"singular active-set system ({a.size} active pairs)")
-    return Reference(sets=sets, kinds=sets.kinds(prob.n_plate), act=act, opn=opn, lu=lu)
+    plate = 2 * n + np.arange(prob.n_plate)
+    slip = np.zeros(0, np.int64)
+    if prob.split is None:
+        blocks = (np.r_[a, a + n, plate],)
+    else:
+        slip = np.flatnonzero(sets.status == SLIP)
+        blocks = (np.r_[a + n, plate[1:]], np.r_[np.flatnonzero(sets.status == STICK), plate[0]])
+    what = f"singular active-set system ({a.size} active pairs)"
+    lus = tuple(checked_lu(rows(prob, sets, b)[:, b], what) for b in blocks)
+    opn = np.setdiff1d(np.arange(2 * n + prob.n_plate), np.concatenate([*blocks, slip]))
+    return Reference(sets=sets, kinds=sets.kinds(prob.n_plate), blocks=blocks, lus=lus, opn=opn,
+                     slip=slip)
 
 
 def checked_lu(A: np.ndarray, what: str) -> tuple:

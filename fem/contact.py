@@ -81,6 +81,13 @@ class InterfaceProblem:
         return B
 
     @cached_property
+    def split(self) -> int | None:
+        """n if C's tangential-normal blocks are exactly zero (the bodies are mirror images of
+        each other: elastically similar, mirrored meshes), else None."""
+        n = self.n
+        return None if np.any(self.C[:n, n:]) or np.any(self.C[n:, :n]) else n
+
+    @cached_property
     def compliance_scale(self) -> np.ndarray:
         """``|C_jj|`` (1 where it is zero), read-only: the size of pair row j's compliance
         (the coefficient of an open row in ``fem.activeset``)."""
