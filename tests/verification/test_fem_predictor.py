@@ -251,3 +251,30 @@ def test_coarse_groups_never_span_unreachable_pairs_or_gaps():
         assert members[-1] < 100 or members[0] >= 110
     small = replace(prob, x=x[:200], w=w[:200], h0=h0[:200], C=np.eye(400))
     assert fem.contact.coarse_groups(small) is None
+
+
+@pytest.mark.parametrize("failing", ["coarse", "fine"])
+def test_failed_coarse_start_falls_back_to_the_first_touch_pairs(monkeypatch, failing):
+    """If the coarse problem fails, or the iteration from its guess, the increment starts
+    from the first-touch pairs (the failed fine systems counted), the same state as without
+    the coarse predictor."""
+    prob = two_zone_problem(lock_theta=True)
+    old, load, pbar = fem.contact.initial_state(prob, None), Load(1.0, 0.0, None), np.zeros(prob.n)
+    real_guess, real = fem.contact.coarse_guess, fem.contact.iterate
+    monkeypatch.setattr(fem.contact, "coarse_guess", lambda *args: None)
+    touch = fem.contact.solve_increment(prob, old, load, pbar, 1e-10, 40)
+    monkeypatch.setattr(fem.contact, "coarse_guess", real_guess)
+    calls = []
+
+    def iterate(p, *args, **kwargs):
+        calls.append(p.n)
+        if (failing == "coarse") == (p.n < prob.n) and calls.count(p.n) == 1:
+            raise fem.contact.NotConverged("forced", 3)
+        return real(p, *args, **kwargs)
+
+    monkeypatch.setattr(fem.contact, "iterate", iterate)
+    state = fem.contact.solve_increment(prob, old, load, pbar, 1e-10, 40)
+    assert calls[0] < prob.n  # the coarse problem was solved first
+    assert state.iterations == touch.iterations + (3 if failing == "fine" else 0)
+    assert np.array_equal(state.status, touch.status)
+    assert np.array_equal(state.lam, touch.lam)
