@@ -239,7 +239,7 @@ def test_coarse_groups_never_span_unreachable_pairs_or_gaps():
     h0[100:110] = np.inf
     prob = fem.contact.InterfaceProblem(C=np.eye(2 * n), x=x, w=w, h0=h0, mu=0.3, k_n=1.0,
                                         k_t=1.0, lock_theta=True)
-    label, rep = fem.contact.coarse_groups(prob)
+    label, rep, _ = fem.contact.coarse_groups(prob)
     k = -(-(n - 10) // fem.contact.COARSE_PAIRS)
     assert np.all(label[100:110] == -1) and np.all(label[np.isfinite(h0)] >= 0)
     assert rep.size <= fem.contact.COARSE_PAIRS + 3
