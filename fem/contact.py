@@ -27,7 +27,7 @@ increment (no pair active before) starts from the same increment solved on every
 (:func:`coarse_guess`), not from the first-touch pairs: from those the iteration overshoots to
 nearly the whole window and shrinks the set by ~25 % per system, each a new reference
 factorisation; if the iteration from the coarse guess fails, or the problem is small, it
-starts from the first-touch pairs.  Cattaneo, ring level 3: 62 Newton systems for the 42
+starts from the first-touch pairs.  Cattaneo, ring level 3: 61 Newton systems for the 42
 increments (69 with the first increment from the first-touch pair, 204 with the elastic
 predictor alone).
 """
