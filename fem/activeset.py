@@ -70,6 +70,9 @@ MAX_BLOCKS = 64
 #: A row of J with at most this many entries (slip: lam_t and lam_n; open: lam) enters the
 #: capacitance matrix through the entries of W it picks, not a product over all columns.
 SPARSE_ROW = 2
+#: Rows of C gathered at a time into a reference's active block (a 5600^2 block of cattaneo
+#: rings level 6: 0.15 s in blocks of 256 rows, 0.4 s in one gather through a 250 MB copy).
+GATHER_ROWS = 256
 #: Reference factorisations kept (predictor-type and converged-type sets of an increment).
 POOL = 2
 
@@ -146,8 +149,9 @@ def rows(prob: InterfaceProblem, sets: Sets, idx: np.ndarray,
     ic, jc = i[comp], j[comp]
     if n_c == 2 * n:
         out[ic, : 2 * n] = prob.C[jc]
-    else:
-        out[ic, :n_c] = prob.C[np.ix_(jc, cols[:n_c])]
+    else:  # in blocks of rows: no temporary as large as the result
+        for s in range(0, jc.size, GATHER_ROWS):
+            out[ic[s : s + GATHER_ROWS], :n_c] = prob.C[np.ix_(jc[s : s + GATHER_ROWS], cols[:n_c])]
     out[ic, n_c:] = prob.plate_matrix()[np.ix_(jc, cols[n_c:] - 2 * n)]
     on = pos[jc] >= 0
     ic, jc = ic[on], jc[on]

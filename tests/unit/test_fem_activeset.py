@@ -174,10 +174,15 @@ def test_update_keeps_rows_columns_and_capacitance_of_the_rows_j():
 
 @pytest.mark.parametrize("lock_theta", [True, False])
 @pytest.mark.parametrize("any_stick", [True, False])
-def test_rows_of_some_columns_equal_the_columns_of_the_full_rows(lock_theta, any_stick):
+def test_rows_of_some_columns_equal_the_columns_of_the_full_rows(lock_theta, any_stick,
+                                                                 monkeypatch):
     """``rows(..., cols)`` (the active block of a reference) is exactly the columns cols of
     the full rows, for every kind of row (stick, slip of both signs, open, plate) and for
-    column sets that leave out some pair and plate columns."""
+    column sets that leave out some pair and plate columns (C gathered in several blocks of
+    rows)."""
+    from fem import activeset
+
+    monkeypatch.setattr(activeset, "GATHER_ROWS", 7)
     n = 30
     prob = problem(n, lock_theta)
     N = 2 * n + prob.n_plate
