@@ -350,15 +350,20 @@ class Update:
             out[~sp] = self.dense_rows(slots[~sp]) @ Wt.T
         return out
 
-    def times(self, x: np.ndarray) -> np.ndarray:
-        """``A[J] x`` in slot order (sparse rows from their entries)."""
+    def times(self, x: np.ndarray, part: tuple | None = None) -> np.ndarray:
+        """``A[J] x`` in slot order (sparse rows from their entries; ``part``: the
+        :meth:`dense_part` of the current J, gathered once for the solves of a system)."""
         m = self.m
-        sp = self.sparse[:m]
         out = (self.spv[:m] * x[self.spc[:m]]).sum(axis=1)
-        if not sp.all():
-            dense = np.flatnonzero(~sp)
-            out[dense] = self.dense_rows(dense) @ x
+        dense, rows_ = part or self.dense_part()
+        if dense.size:
+            out[dense] = rows_ @ x
         return out
+
+    def dense_part(self) -> tuple[np.ndarray, np.ndarray]:
+        """The slots of the dense rows of J and those rows of ``A[J]`` (:meth:`dense_rows`)."""
+        dense = np.flatnonzero(~self.sparse[: self.m])
+        return dense, (self.dense_rows(dense) if dense.size else self.AJ[:0])
 
     def dense_rows(self, slots: np.ndarray) -> np.ndarray:
         """``AJ[slots]``: a view if the slots are consecutive and ascending (the dense rows
@@ -510,11 +515,13 @@ class ActiveSetSolver:
                 f"singular active-set system ({np.count_nonzero(sets.status)} active pairs)",
             )
 
+        part = None if cap is None else u.dense_part()  # one gather for both solves
+
         def apply(x0: np.ndarray, r: np.ndarray) -> np.ndarray:
             if cap is None:
                 return x0
             m = u.m
-            t = lu_solve(cap, u.times(x0) - r[u.idx[:m]], check_finite=False)
+            t = lu_solve(cap, u.times(x0, part) - r[u.idx[:m]], check_finite=False)
             return x0 - u.Wt[:m].T @ t
 
         x = apply(y, b)
