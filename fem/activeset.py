@@ -25,11 +25,7 @@ the system of every iteration is a row update of a *reference* system factorised
 from b only in J, which the update corrects): the reference's own right-hand side for the same
 load and history is such a b', so one solve serves all Newton systems of an increment.
 A0 is block triangular in (active, open) ordering, ``[[A11, A12], [0, diag(c)]]``, so only
-its active block A11 (the reference active system) is LU-factorised, and in it the slip row
-of a slipping pair, ``lam_t - mu s lam_n = b``, is substituted into the other rows (A11 loses
-that row and the column of its lam_t, which folds into the column of lam_n): the factorised
-size is ``2 n_active - n_slip + n_plate`` (cattaneo rings level 6, the reference after the
-stage-2 slip zone, 818 of 2793 active pairs slipping: 4771 instead of 5589).  Cost per iteration:
+its active block A11 (the reference active system) is LU-factorised.  Cost per iteration:
 one solve with the reference factors (the refinement's; the first is shared by the
 increment), products with the active columns of C (``O(n n_active)``: the refinement's
 residual and ``d``), products with W and the dense rows of ``A[J]`` (``O(r N)``), one more
@@ -413,20 +409,15 @@ def update(ref: Reference, prob: InterfaceProblem, sets: Sets, J: np.ndarray,
 
 @dataclass(eq=False)
 class Reference:
-    """A factorised reference system: its sets, row kinds, index split (``act``: the rows and
-    columns of the LU-factorised block; ``slip``: the slipping pairs, whose ``lam_t`` is
-    eliminated; ``opn``: the open rows), the LU of the active block with ``G``, its columns
-    of the slip pairs' ``lam_t`` (folded into their ``lam_n`` columns), the cached columns of
-    ``A0^{-1} E_J``, the current update (rows J) and the last solution ``A0^{-1} b'`` for the
-    reference's own right-hand side."""
+    """A factorised reference system: its sets, row kinds, active/open index split, the LU of
+    the active block, the cached columns of ``A0^{-1} E_J``, the current update (rows J) and
+    the last solution ``A0^{-1} b'`` for the reference's own right-hand side."""
 
     sets: Sets
     kinds: np.ndarray
     act: np.ndarray
-    slip: np.ndarray
     opn: np.ndarray
     lu: tuple
-    G: np.ndarray
     columns: dict = field(default_factory=dict)
     work: Update = field(init=False)
     base: tuple | None = None  # (b', A0^{-1} b') of the last base solve
@@ -435,18 +426,12 @@ class Reference:
         self.work = Update(self.kinds.size)
 
     def solve(self, prob: InterfaceProblem, B: np.ndarray) -> np.ndarray:
-        """``A0^{-1} B`` by block back-substitution (B: (N,) or (N, k)): the open rows
-        ``lam = B / c``, the active block with the slip rows ``lam_t = B + mu s lam_n``
-        substituted, then those rows."""
-        col = (slice(None),) + (None,) * (B.ndim - 1)
+        """``A0^{-1} B`` by block back-substitution (B: (N,) or (N, k))."""
+        diag = open_scale(prob)
         X = np.zeros_like(B)
-        X[self.opn] = B[self.opn] / open_scale(prob)[self.opn][col]
+        X[self.opn] = B[self.opn] / (diag[self.opn] if B.ndim == 1 else diag[self.opn, None])
         a12x = matvec(prob, self.sets, X)[self.act] if self.opn.size else 0.0
-        if self.slip.size:
-            a12x = a12x + self.G @ B[self.slip]
         X[self.act] = lu_solve(self.lu, B[self.act] - a12x, check_finite=False)
-        n, s = prob.n, self.slip
-        X[s] = B[s] + (prob.mu * self.sets.sign[s])[col] * X[s + n]
         return X
 
     def base_solution(self, prob: InterfaceProblem, b: np.ndarray, b_ref: np.ndarray,
@@ -480,19 +465,14 @@ class Reference:
 
 
 def factor_reference(prob: InterfaceProblem, sets: Sets) -> Reference:
-    """LU of the active block of the full system of ``sets`` with the slip pairs' ``lam_t``
-    eliminated (NotConverged if singular): its slip row ``lam_t = mu s lam_n`` adds
-    ``mu s`` times its column to the column of ``lam_n``."""
-    n, N = prob.n, 2 * prob.n + prob.n_plate
-    a, slip = np.flatnonzero(sets.status > OPEN), np.flatnonzero(sets.status == SLIP)
-    act = np.r_[np.flatnonzero(sets.status == STICK), a + n, 2 * n + np.arange(prob.n_plate)]
-    opn = np.setdiff1d(np.arange(N), np.r_[act, slip])
+    """LU of the active block of the full system of ``sets`` (NotConverged if singular)."""
+    n = prob.n
+    a = np.flatnonzero(sets.status > OPEN)
+    act = np.r_[a, a + n, 2 * n + np.arange(prob.n_plate)]
+    opn = np.setdiff1d(np.arange(2 * n + prob.n_plate), act)
     A11 = rows(prob, sets, act, act)
-    G = rows(prob, sets, act, slip)
-    A11[:, np.searchsorted(act, slip + n)] += G * (prob.mu * sets.sign[slip])
     lu = checked_lu(A11, f"singular active-set system ({a.size} active pairs)")
-    return Reference(sets=sets, kinds=sets.kinds(prob.n_plate), act=act, slip=slip, opn=opn,
-                     lu=lu, G=G)
+    return Reference(sets=sets, kinds=sets.kinds(prob.n_plate), act=act, opn=opn, lu=lu)
 
 
 def checked_lu(A: np.ndarray, what: str) -> tuple:

@@ -196,27 +196,3 @@ def test_rows_of_some_columns_equal_the_columns_of_the_full_rows(lock_theta, any
                  np.sort(rng.choice(N, N // 2, replace=False))):
         idx = rng.permutation(N)[: N - 5]
         assert np.array_equal(rows(prob, sets, idx, cols), full[np.ix_(idx, cols)])
-
-
-@pytest.mark.parametrize("lock_theta", [True, False])
-def test_reference_eliminates_the_slip_rows(lock_theta):
-    """A reference factorises only the stick tangential, the active normal and the plate rows
-    (a slipping pair's lam_t = mu s lam_n + b is substituted), and its solves of one or
-    several right-hand sides equal direct dense solves of the full system."""
-    from fem.activeset import factor_reference
-
-    n = 40
-    prob = problem(n, lock_theta)
-    N = 2 * n + prob.n_plate
-    rng = np.random.default_rng(11)
-    status = np.full(n, OPEN, np.int8)
-    status[8:32] = STICK
-    status[8:13], status[28:32] = SLIP, SLIP
-    sets = make_sets(status, np.where(np.arange(n) < 20, -1.0, 1.0))
-    ref = factor_reference(prob, sets)
-    assert ref.lu[0].shape == (24 + 15 + prob.n_plate,) * 2
-    A = rows(prob, sets, np.arange(N))
-    for B in (rng.normal(size=N), rng.normal(size=(N, 3))):
-        direct = np.linalg.solve(A, B)
-        assert np.allclose(ref.solve(prob, B), direct, rtol=1e-10,
-                           atol=1e-11 * np.abs(direct).max())
