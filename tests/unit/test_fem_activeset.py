@@ -170,3 +170,29 @@ def test_update_keeps_rows_columns_and_capacitance_of_the_rows_j():
         rebuilt += 2 * J.size
     assert sparse_seen
     assert 0 < u.computed < rebuilt
+
+
+@pytest.mark.parametrize("lock_theta", [True, False])
+@pytest.mark.parametrize("any_stick", [True, False])
+def test_rows_of_some_columns_equal_the_columns_of_the_full_rows(lock_theta, any_stick,
+                                                                 monkeypatch):
+    """``rows(..., cols)`` (the active block of a reference) is exactly the columns cols of
+    the full rows, for every kind of row (stick, slip of both signs, open, plate) and for
+    column sets that leave out some pair and plate columns (C gathered in several blocks of
+    rows)."""
+    from fem import activeset
+
+    monkeypatch.setattr(activeset, "GATHER_ROWS", 7)
+    n = 30
+    prob = problem(n, lock_theta)
+    N = 2 * n + prob.n_plate
+    rng = np.random.default_rng(7)
+    status = rng.choice(np.array([OPEN, SLIP, STICK] if any_stick else [OPEN, SLIP], np.int8),
+                        n)
+    sets = make_sets(status, rng.choice([-1.0, 1.0], n))
+    full = rows(prob, sets, np.arange(N))
+    a = np.flatnonzero(status > OPEN)
+    for cols in (np.r_[a, a + n, 2 * n + np.arange(prob.n_plate)], np.arange(N),
+                 np.sort(rng.choice(N, N // 2, replace=False))):
+        idx = rng.permutation(N)[: N - 5]
+        assert np.array_equal(rows(prob, sets, idx, cols), full[np.ix_(idx, cols)])
