@@ -25,7 +25,14 @@ the system of every iteration is a row update of a *reference* system factorised
 from b only in J, which the update corrects): the reference's own right-hand side for the same
 load and history is such a b', so one solve serves all Newton systems of an increment.
 A0 is block triangular in (active, open) ordering, ``[[A11, A12], [0, diag(c)]]``, so only
-its active block A11 (the reference active system) is LU-factorised.  Cost per iteration:
+its active block A11 (the reference active system) is LU-factorised.  Between mirror-image
+bodies (elastically similar, mirrored meshes: the generated ones) C's tangential-normal blocks
+are zero (``InterfaceProblem.split``; a tangential pair force opens no normal gap), so the
+normal rows and the P, M rows involve only ``lam_n``, ``v_p`` and theta, and the tangential
+rows read ``lam_n`` only through the slip rows: A11 is block triangular too, and its normal
+block and the sticking pairs' tangential block (``lam_t``, ``u_p``) are factorised apart, the
+slip rows ``lam_t = b + mu s lam_n`` solved between them (LUs of half the size or less: a
+quarter of the work or less), and the products with C skip the zero blocks.  Cost per iteration:
 one solve with the reference factors (the refinement's; the first is shared by the
 increment), products with the active columns of C (``O(n n_active)``: the refinement's
 residual and ``d``), products with W and the dense rows of ``A[J]`` (``O(r N)``), one more

@@ -7,7 +7,18 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from fem.activeset import OPEN, SLIP, STICK, ActiveSetSolver, make_sets, matvec, rhs, rows
+from fem.activeset import (
+    OPEN,
+    SLIP,
+    STICK,
+    ActiveSetSolver,
+    compliance_product,
+    factor_reference,
+    make_sets,
+    matvec,
+    rhs,
+    rows,
+)
 from fem.contact import InterfaceProblem, Load
 
 #: Relative residual of an updated solve: one refinement step brings it to rounding
@@ -15,8 +26,10 @@ from fem.contact import InterfaceProblem, Load
 RESIDUAL_TOL = 1e-12
 
 
-def problem(n: int, lock_theta: bool) -> InterfaceProblem:
-    """A half-plane-like interface: SPD log-kernel compliance, uncoupled t and n blocks."""
+def problem(n: int, lock_theta: bool, coupling: float = 0.0) -> InterfaceProblem:
+    """A half-plane-like interface: SPD log-kernel compliance, t and n blocks uncoupled (as
+    between mirror-image bodies: ``fem.activeset`` then factorises them apart) or coupled by
+    ``coupling`` times the kernel (as between bodies of another mesh or material)."""
     x = np.linspace(-1.0, 1.0, n)
     w = np.full(n, x[1] - x[0])
     r = np.abs(x[:, None] - x[None, :]) + 0.3 * w[0]
@@ -24,6 +37,7 @@ def problem(n: int, lock_theta: bool) -> InterfaceProblem:
     C = np.zeros((2 * n, 2 * n))
     C[:n, :n] = block
     C[n:, n:] = block
+    C[:n, n:] = C[n:, :n] = coupling * block
     C += 0.05 * np.eye(2 * n) * w[0]
     assert np.all(np.linalg.eigvalsh(0.5 * (C + C.T)) > 0)
     return InterfaceProblem(C=C, x=x, w=w, h0=0.5 * x**2, mu=0.4, k_n=50.0 / w[0],
@@ -48,10 +62,12 @@ def status_walk(n: int, steps: int, rng) -> list[tuple[np.ndarray, np.ndarray]]:
     return out
 
 
+@pytest.mark.parametrize("coupling", [0.0, 0.2])
 @pytest.mark.parametrize("lock_theta", [True, False])
-def test_updated_solves_equal_direct_solves(lock_theta):
+def test_updated_solves_equal_direct_solves(lock_theta, coupling):
     n = 60
-    prob = problem(n, lock_theta)
+    prob = problem(n, lock_theta, coupling)
+    assert prob.split == (n if coupling == 0.0 else None)
     rng = np.random.default_rng(3)
     solver = ActiveSetSolver(prob)
     N = 2 * n + prob.n_plate
@@ -96,13 +112,14 @@ def history_rhs(prob: InterfaceProblem, rng):
     return lambda s: rhs(prob, s, old, load, pbar)
 
 
+@pytest.mark.parametrize("coupling", [0.0, 0.2])
 @pytest.mark.parametrize("lock_theta", [True, False])
-def test_systems_of_one_increment_share_the_base_solve(lock_theta):
+def test_systems_of_one_increment_share_the_base_solve(lock_theta, coupling):
     """The Newton systems of one increment (one right-hand side function) solve A x = b with
     the reference's own right-hand side solved once; a b that differs from it outside J is
     solved directly."""
     n = 60
-    prob = problem(n, lock_theta)
+    prob = problem(n, lock_theta, coupling)
     rng = np.random.default_rng(5)
     solver = ActiveSetSolver(prob)
     N = 2 * n + prob.n_plate
@@ -196,3 +213,49 @@ def test_rows_of_some_columns_equal_the_columns_of_the_full_rows(lock_theta, any
                  np.sort(rng.choice(N, N // 2, replace=False))):
         idx = rng.permutation(N)[: N - 5]
         assert np.array_equal(rows(prob, sets, idx, cols), full[np.ix_(idx, cols)])
+
+
+@pytest.mark.parametrize("lock_theta", [True, False])
+def test_a_decoupled_reference_factorises_the_normal_and_the_sticking_tangential_blocks(
+        lock_theta):
+    """With C's tangential-normal blocks zero the reference LU-factorises the normal block
+    (active lam_n, v_p, theta) and the sticking pairs' tangential block (lam_t, u_p) apart,
+    the slip rows solved between them, and solves A0 x = B as the dense solve does; with a
+    coupled C it factorises one block of all active rows."""
+    n = 40
+    status = np.full(n, OPEN, np.int8)
+    status[8:32] = STICK
+    status[8:13] = SLIP
+    status[28:32] = SLIP
+    sign = np.where(np.arange(n) < 20, -1.0, 1.0)
+    sets = make_sets(status, sign)
+    B = np.random.default_rng(2).normal(size=(2 * n + (2 if lock_theta else 3), 3))
+    for coupling in (0.0, 0.2):
+        prob = problem(n, lock_theta, coupling)
+        N = 2 * n + prob.n_plate
+        ref = factor_reference(prob, sets)
+        sizes = [b.size for b in ref.blocks]
+        if coupling == 0.0:
+            assert sizes == [24 + prob.n_plate - 1, 15 + 1]
+        else:
+            assert sizes == [2 * 24 + prob.n_plate]
+        A = rows(prob, sets, np.arange(N))
+        X = ref.solve(prob, B)
+        assert np.allclose(X, np.linalg.solve(A, B), rtol=1e-10, atol=1e-12 * np.abs(X).max())
+
+
+def test_compliance_product_by_halves_equals_the_full_product():
+    """``split``: the blocks across the tangential and normal halves are skipped (they are
+    zero), in the run-by-run and in the gathered (many runs) product alike."""
+    n = 30
+    prob = problem(n, lock_theta=True)
+    rng = np.random.default_rng(4)
+    for runs in (3, 40):  # a few runs of neighbours; more runs than MAX_BLOCKS allows
+        lam = np.zeros((2 * n, 2))
+        cols = rng.choice(2 * n, size=runs, replace=False) if runs > 3 else np.r_[
+            np.arange(n - 4, n + 5), np.arange(2, 6)]
+        lam[cols] = rng.normal(size=(cols.size, 2))
+        rows_ = np.sort(rng.choice(2 * n, size=2 * n - 7, replace=False))
+        full = (prob.C @ lam)[rows_]
+        halves = compliance_product(prob.C, lam, rows_, prob.split)
+        assert np.allclose(halves, full, rtol=1e-13, atol=1e-15 * np.abs(full).max())

@@ -71,3 +71,20 @@ def test_expansion_reproduces_distributed_forces_far_away():
         )
         far = flamant_lower(px - 0.1, py, 1.0j, E, NU, 1) * f.sum()  # dipole-size scale
         assert abs(series - exact) < tol * abs(far) * r
+
+
+def test_far_field_term_keeps_a_decoupled_compliance_decoupled():
+    """The lift's tangential-normal blocks (rounding of a term that is zero between mirror-image
+    bodies) are left out when the bulk's are zero, and kept when the bulk couples them."""
+    from fem.history import add_far_field
+
+    rng = np.random.default_rng(1)
+    n = 5
+    C = np.diag(rng.uniform(1.0, 2.0, 2 * n))
+    Cf = rng.normal(size=(2 * n, 2 * n))
+    out = add_far_field(C, Cf.copy())
+    assert not np.any(out[:n, n:]) and not np.any(out[n:, :n])
+    assert np.array_equal(out[:n, :n], C[:n, :n] + Cf[:n, :n])
+    assert np.array_equal(out[n:, n:], C[n:, n:] + Cf[n:, n:])
+    C[0, n] = C[n, 0] = 0.1
+    assert np.array_equal(add_far_field(C, Cf.copy()), C + Cf)
