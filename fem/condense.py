@@ -58,14 +58,27 @@ RHS_BLOCK = 256
 #: blocks starting at multiples of the group width keep every column in the group it has in
 #: the all-at-once sweep, hence its numbers bit for bit (cattaneo rings level 2, 42 increments:
 #: blocks of 4, 8, 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6, 41 not;
-#: tests/unit/test_fem_condense.py).
+#: tests/unit/test_fem_condense.py).  At level 6 a sweep's cost is proportional to its
+#: columns, so wider blocks buy little: CPU ms per column of one sweep of body 1 (1.35M dofs,
+#: two runs) 72-74 / 60-61 / 58 / 50-56 / 60-62 with 8 / 16 / 32 / 48 / 84 columns; 16 stays.
 RECOVERY_BLOCK = 16
-#: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last).  CHOLMOD's
-#: nested dissection beats its default (AMD) once the pair rows dominate the fill: cattaneo
-#: rings, body 1, numeric factorisation CPU s (nnz L; Prescott kernels, see body_order) amd /
-#: nesdis: level 2 0.29 / 0.37 (2.9M / 2.5M), level 3 1.6 / 1.15 (8.4M / 7.1M), level 4 9.3 /
-#: 5.6 (25M / 21M); so CHOLMOD's
-#: default (AMD) below NESDIS_MIN_DOFS free dofs of the body (level 2: 32k, level 3: 77k).
+#: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last), of their node
+#: graph (:func:`body_order`).  CHOLMOD's orderings on the node graph, cattaneo rings body 1,
+#: CPU s of the ordering (Python and CHOLMOD's analysis) + numeric factorisation, two runs each
+#: on the shared machine (SkylakeX kernels), factorisation flops (sum of squared column counts):
+#:   level (dofs)  nesdis                  metis                   amd
+#:   3 (77k)       .27-.39 + .25-.45 2.2G  .23-.25 + .27-.29 2.2G  .06-.10 + .31-.36 3.8G
+#:   4 (200k)      .69-.91 + .80-.85 11.5G .67-.77 + .84-1.27 11.6G .18-.28 + 1.00-1.45 18.6G
+#:   5 (513k)      2.09-2.23 + 2.8-3.1 65G 1.85-1.87 + 3.0-3.1 67G .52-.65 + 4.0-4.1 111G
+#:   6 (1.35M)     7.0-7.6 + 12.2-12.3 411G 6.1-6.6 + 13.4-14.3 424G 1.8-2.3 + 17.2-24.2 643G
+#: (the trailing block's potri, 0.05 / 0.20 / 1.11 / 7.7 s at levels 3-6, does not depend on
+#: it).  No other ordering saves the >= 2 s at level 6 that would pay for moving every FE
+#: number in its last bits: AMD orders 5 s faster but its factor costs 1.6x the flops (5-12 s
+#: more; in total 19.0-26.4 s against nesdis' 19.2-19.8) and holds 1.27x the entries (323M
+#: against 255M: the memory and the recovery's sweeps), METIS orders 0.6-0.9 s faster and
+#: factorises 1-2 s slower.  AMD (CHOLMOD's default)
+#: below NESDIS_MIN_DOFS free dofs of the body (level 2: 32k dofs; at level 3 AMD would save
+#: 0.1-0.3 s, nesdis is kept there for the same reason).
 INNER_ORDERING, NESDIS_MIN_DOFS = "nesdis", 50_000
 #: Body 2's stiffness is taken as the mirror image of body 1's (one factorisation for both,
 #: issue 28) when they agree to this relative to the largest entry, a backward error of the
@@ -297,18 +310,26 @@ def mirror_signs(K1: sp.csc_matrix, K2: sp.csc_matrix, g1: np.ndarray, g2: np.nd
     if K1.shape != K2.shape or not np.array_equal(g1, g2) or not (
             np.array_equal(K1.indptr, K2.indptr) and np.array_equal(K1.indices, K2.indices)):
         return None
-    scale = np.max(np.abs(K1.data), initial=0.0)
-    big = np.abs(K1.data) > MIRROR_SIGNIFICANT * scale  # couplings zero up to rounding: no sign
-    same = big & (np.sign(K1.data) * np.sign(K2.data) > 0)
-    graph = sp.csc_matrix((same.astype(np.int8), K1.indices, K1.indptr), shape=K1.shape,
+    a1, a2 = K1.data, K2.data
+    mag = np.abs(a1)
+    scale = np.max(mag, initial=0.0)
+    same = mag > MIRROR_SIGNIFICANT * scale  # couplings zero up to rounding: no sign
+    del mag
+    same &= ((a1 > 0) & (a2 > 0)) | ((a1 < 0) & (a2 < 0))  # d_i d_j = +1
+    graph = sp.csc_matrix((same.view(np.int8), K1.indices, K1.indptr), shape=K1.shape,
                           copy=True)
+    del same
     graph.eliminate_zeros()  # csgraph takes stored zeros as edges
     count, labels = connected_components(graph, directed=False)
+    del graph
     if count > 2:
         return None
     d = np.where(labels == labels[0], 1.0, -1.0)
-    cols = np.repeat(np.arange(K1.shape[1]), np.diff(K1.indptr))
-    err = np.abs(K2.data - d[K1.indices] * d[cols] * K1.data)
+    err = np.repeat(d, np.diff(K1.indptr))  # d_j d_i K1_ij, exact (d = +-1), then the error
+    err *= d[K1.indices]
+    err *= a1
+    np.subtract(a2, err, out=err)
+    np.abs(err, out=err)
     return d if np.all(err <= MIRROR_RTOL * scale) else None
 
 
@@ -335,10 +356,8 @@ def body_order(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
     moved last 1.9 / 6.8 s, 27M / 81M; METIS of the whole body so 1.5 / 6.6 s, 27M / 81M.
     The node graph instead of the dof graph: the same supernodal entries 26.7M / 80.0M / 255M
     and factorisation flops 11.7G / 65.3G / 412G at levels 4 / 5 / 6; ordering CPU s
-    0.90 / 2.7 / 9.0 -> 0.69 / 2.2 / 6.9; METIS instead of nesdis on the node graph 27.1M /
-    82.4M entries, 11.8G / 67.0G flops at levels 4 / 5.  With the CPU's kernels (SkylakeX)
-    this order's factorisation (analysis and numeric) takes 0.88 / 2.9 / 11.3-12.0 s at
-    levels 4 / 5 / 6.)"""
+    0.90 / 2.7 / 9.0 -> 0.69 / 2.2 / 6.9.  The orderings of the node graph compared at levels
+    3-6 with the CPU's kernels: beside INNER_ORDERING.)"""
     from sksparse.cholmod import analyze
 
     if not Kb.has_sorted_indices:
@@ -362,13 +381,17 @@ def dof_groups(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
     count = np.diff(ptr)
     on_gamma = np.zeros(n, dtype=bool)
     on_gamma[gamma] = True
-    cand = np.flatnonzero((count[:-1] == count[1:]) & (on_gamma[:-1] == on_gamma[1:]))
-    same = np.zeros(max(n - 1, 0), dtype=bool)  # dof i + 1 joins dof i's group
-    if cand.size:
-        lens = count[cand]
-        starts = np.cumsum(lens) - lens
-        at = concat_ranges(ptr[cand], lens)  # column i's entries
-        same[cand] = np.logical_and.reduceat(ind[at] == ind[at + np.repeat(lens, lens)], starts)
+    same = (count[:-1] == count[1:]) & (on_gamma[:-1] == on_gamma[1:])  # dof i + 1 joins i
+    if n > 1 and same.any():
+        m = int(ptr[n - 1])  # the entries of columns 0 .. n-2, each against the entry
+        wide = np.int32 if 2 * ind.size < np.iinfo(np.int32).max else np.int64
+        ahead = np.repeat(count[:-1].astype(wide), count[:-1])  # count[i] further on
+        ahead += np.arange(m, dtype=wide)  # (column i + 1's entry when the counts agree)
+        np.minimum(ahead, ind.size - 1, out=ahead)  # past the end only where counts differ
+        eq = ind[:m] == ind[ahead]
+        del ahead
+        full = np.flatnonzero(count[:-1])  # reduceat takes no empty segment
+        same[full] &= np.logical_and.reduceat(eq, ptr[full])
     return np.r_[0, np.cumsum(~same)]
 
 

@@ -416,6 +416,40 @@ def test_dof_groups_are_runs_of_one_pattern_on_one_side_of_the_pair_dofs():
     assert np.array_equal(gid[:9], [0, 0, 1, 1, 2, 2, 3, 4, 4]) and gid[-1] == 15
 
 
+def groups_by_columns(K: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
+    """dof_groups' definition column by column: dof i + 1 joins dof i's group when both have
+    the same row indices (sorted) and lie on the same side of gamma."""
+    on = np.isin(np.arange(K.shape[0]), gamma)
+    col = [K.indices[K.indptr[i]:K.indptr[i + 1]] for i in range(K.shape[0])]
+    joins = [np.array_equal(col[i], col[i + 1]) and on[i] == on[i + 1]
+             for i in range(K.shape[0] - 1)]
+    return np.r_[0, np.cumsum(~np.array(joins, dtype=bool))]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_dof_groups_equal_the_column_by_column_definition(seed):
+    """Random patterns with runs of repeated columns, columns of unequal counts side by side
+    (the vectorised comparison reads past a shorter neighbour), an empty column, the last
+    column longer than the one before it."""
+    from fem.condense import dof_groups
+
+    rng = np.random.default_rng(seed)
+    n = 40
+    cols = []
+    while len(cols) < n:
+        rows = np.sort(rng.choice(n, size=rng.integers(1, 6), replace=False))
+        cols += [rows] * int(rng.integers(1, 4))
+        if rng.random() < 0.3:  # same count, different rows
+            cols.append(np.sort(np.r_[rows[:-1], (rows[-1] + 1) % n]))
+    cols = cols[:n - 2] + [np.array([], dtype=int), np.arange(0, n, 3)]
+    indptr = np.r_[0, np.cumsum([c.size for c in cols])]
+    K = sp.csc_matrix((np.ones(indptr[-1]), np.concatenate(cols), indptr), shape=(n, n))
+    K.has_sorted_indices = True
+    gamma = np.sort(rng.choice(n, size=5, replace=False))
+    for g in (gamma, np.array([], dtype=int)):
+        assert np.array_equal(dof_groups(K, g), groups_by_columns(K, g))
+
+
 def test_node_graph_ordering_gives_the_compliance_of_a_reference_solve(monkeypatch):
     """Ring-mesh bodies ordered by nested dissection of the node graph: C and the solves
     agree with SuperLU on the whole stiffness to rounding."""
