@@ -13,8 +13,11 @@ Two ways to get C from ONE factorisation per body:
   ``L22`` (2n x 2n) of the factor is the Cholesky factor of the Schur complement
   ``S_b = L22 L22^T`` and ``C_b = S_b^{-1}`` is formed in place from it (LAPACK
   ``potri``, no extra sparse solves, no dense block larger than 2n x 2n; ``L22`` is read in
-  place from the supernodal factor, ``fem.supernodal``).  ``condense_bodies`` hands the
-  bodies' stiffnesses over one by one, without the block-diagonal K;
+  place from the supernodal factor, ``fem.supernodal``).  A body that is the mirror image of
+  the other (``K_2 = D K_1 D``) shares its factor, and ``C = C_1 + D C_1 D`` is block diagonal
+  (tangential / normal), its two blocks formed without potri's off-diagonal one
+  (:func:`mirror_compliance`).  ``condense_bodies`` hands the bodies' stiffnesses over one by
+  one, without the block-diagonal K;
 - other backends (or bodies coupled in K): blocked multi-RHS solves ``K^{-1} E``.
 All contact iterations then work with the small dense C.
 
@@ -37,7 +40,8 @@ from dataclasses import replace
 import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import solve_triangular
-from scipy.linalg.lapack import dpotri, dtpttr, dtrttp
+from scipy.linalg.blas import dsyrk, dtrmm
+from scipy.linalg.lapack import dlauum, dpotri, dtpttr, dtrtri, dtrttp
 from scipy.sparse.csgraph import connected_components
 
 from .bulk import Discretisation, reduced_bodies, reduced_stiffness
@@ -206,8 +210,10 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
     trailing block is read, issue 28)."""
     (K1, idx1, local1), (K2, idx2, local2) = bodies
     signs = mirror_signs(K1, K2, local1, local2)
+    split = None
     if signs is not None:  # the mirror image of body 1: its factor, C_2 = D C_1 D
         bodies[1] = (None, idx2, local2)
+        split = sign_split(signs[local1])
     del K1, K2
     parts, C = [], None
     for b in range(len(bodies)):
@@ -215,13 +221,14 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
         bodies[b] = None
         if Kb is None:
             parts.append((idx, *parts[0][1:4], signs))
-            flip_add(C, signs[local])
+            if split is None:  # else C holds C_1 + D C_1 D already
+                flip_add(C, signs[local])
             continue
         perm = body_order(Kb, local)
         Kb = Kb[perm][:, perm].tocsc()  # the permuted copy replaces the body's own (issue 28)
         chol = natural_cholesky(Kb)
         del Kb
-        Cb, packed = trailing_compliance(chol, idx.size, local.size)
+        Cb, packed = trailing_compliance(chol, idx.size, local.size, split if b == 0 else None)
         parts.append((idx, perm, chol, packed, None))
         C = Cb if C is None else np.add(C, Cb, out=C)
         del Cb
@@ -420,24 +427,69 @@ def natural_cholesky(Kp: sp.csc_matrix):
     return cholesky(Kp, ordering_method="natural")
 
 
-def trailing_compliance(chol, n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+def trailing_compliance(chol, n: int, m: int, split: int | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
     """``(C_b, packed)`` from a body's factor (n x n) with its m pair dofs last: ``C_b =
     (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing factor block ``L22``
     (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and ``L22`` itself
-    packed (lower, LAPACK ``trttp``) for the recovery's backward solves.  ``L22`` is read in
-    place from the supernodal factor (``fem.supernodal``); only a factor that module cannot
-    read goes through ``chol.L()``, a converted copy of the whole factor (level 6's peak
-    memory before issue 28)."""
+    packed (lower, LAPACK ``trttp``) for the recovery's backward solves.  With ``split``
+    (:func:`sign_split` of a mirror body's signs) ``C_b + D C_b D`` instead, by
+    :func:`mirror_compliance`.  Lower triangles only.  ``L22`` is read in place from the
+    supernodal factor (``fem.supernodal``); only a factor that module cannot read goes
+    through ``chol.L()``, a converted copy of the whole factor (level 6's peak memory before
+    issue 28)."""
     L22 = trailing_block(chol, n, m)
     if L22 is None:
         L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
     packed, info = dtrttp(L22, uplo="L")
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK trttp failed (info={info})")
+    if split is not None:
+        return mirror_compliance(L22, split), packed
     Cb, info = dpotri(L22, lower=1, overwrite_c=1)
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK potri failed (info={info})")
     return Cb, packed
+
+
+def sign_split(d: np.ndarray) -> int | None:
+    """k if the signs d (+-1) are one sign on their first k entries and the other on the rest
+    (0 < k < d.size), else None: a mirror body's pair dofs ``[t..., n...]`` (y -> -y flips
+    the n dofs), on which ``C_1 + D C_1 D`` is block diagonal (``1 + d_i d_j = 0`` between the
+    blocks)."""
+    k = int(np.argmax(d != d[0])) if d.size else 0
+    return k if k > 0 and np.all(d[k:] == -d[0]) else None
+
+
+def mirror_compliance(L22: np.ndarray, k: int) -> np.ndarray:
+    """``C_b + D C_b D = 2 diag(X_11, X_22)`` on its lower triangle, in place of ``L22``
+    (Fortran order, as potri; D = +1 on the first k pair dofs, -1 on the rest or the reverse;
+    ``X = S^{-1}``, ``S = L22 L22^T``), without the off-diagonal block of X that potri would
+    compute only for it to cancel (issue 28: 5.3 -> 4.3 n^3 flops for m = 2n).  With ``L22 =
+    [[L11, 0], [L21, L22']]``, ``A = L11^{-1}``, ``E = L22'^{-1}``: ``X_22 = E^T E`` and
+    ``X_11 = A^T A + B^T B``, ``B = -E L21 A`` (LAPACK trtri, lauum, BLAS trmm, syrk; the
+    strict upper triangle is left to :func:`mirror_lower`).  Besides ``L22`` it holds three
+    blocks of a quarter of its size (A, E, B) at a time."""
+    A, info_a = dtrtri(L22[:k, :k], lower=1, overwrite_c=1)
+    E, info_e = dtrtri(L22[k:, k:], lower=1, overwrite_c=1)
+    if info_a != 0 or info_e != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK trtri failed "
+                               f"(info={info_a}, {info_e})")
+    B = dtrmm(1.0, A, L22[k:, :k], side=1, lower=1)  # L21 A
+    B = dtrmm(-1.0, E, B, side=0, lower=1, overwrite_b=1)  # -E L21 A
+    C = L22  # its blocks are copied out: the result goes in its place
+    C[k:, :k] = 0.0
+    X, info = dlauum(E, lower=1, overwrite_c=1)  # E^T E
+    if info != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK lauum failed (info={info})")
+    np.multiply(X, 2.0, out=C[k:, k:])
+    del E, X
+    X, info = dlauum(A, lower=1, overwrite_c=1)  # A^T A
+    if info != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK lauum failed (info={info})")
+    X = dsyrk(1.0, B, beta=1.0, c=X, trans=1, lower=1, overwrite_c=1)  # + B^T B
+    np.multiply(X, 2.0, out=C[:k, :k])
+    return C
 
 
 def mirror_lower(A: np.ndarray) -> None:

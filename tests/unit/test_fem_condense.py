@@ -220,6 +220,36 @@ def test_flip_add_on_the_lower_triangle_then_mirror_lower_gives_c_plus_dcd(m):
     assert np.array_equal(got, C + d[:, None] * C * d[None, :])
 
 
+@pytest.mark.parametrize(("d", "k"), [([1, 1, -1, -1, -1], 2), ([-1, 1, 1], 1), ([1, 1], None),
+                                      ([1, -1, 1], None), ([1, -1, -1, 1], None), ([], None)])
+def test_sign_split_finds_one_sign_then_the_other(d, k):
+    from fem.condense import sign_split
+
+    assert sign_split(np.array(d, dtype=float)) == k
+
+
+@pytest.mark.parametrize(("m", "k"), [(6, 3), (7, 2), (300, 150), (301, 120)])
+def test_mirror_compliance_is_potri_plus_its_flip_to_rounding(m, k):
+    """The block-diagonal route gives potri's C + D C D (D = +1 on the first k dofs, -1 on
+    the rest) on the lower triangle to rounding, zero between the blocks, in L22's place."""
+    from scipy.linalg.lapack import dpotri
+
+    from fem.condense import flip_add, mirror_compliance
+
+    rng = np.random.default_rng(m)
+    L22 = np.asfortranarray(np.tril(rng.normal(size=(m, m))) / np.sqrt(m))
+    L22[np.diag_indices(m)] = 1.0 + rng.random(m)
+    ref, info = dpotri(L22.copy(order="F"), lower=1)
+    assert info == 0
+    flip_add(ref, np.r_[np.ones(k), -np.ones(m - k)])
+    ref = np.tril(ref)
+    got = mirror_compliance(L22, k)
+    assert got is L22 and got.flags.f_contiguous
+    got = np.tril(got)
+    assert not got[k:, :k].any()
+    assert np.max(np.abs(got - ref)) <= 1e-13 * np.abs(ref).max()
+
+
 class CountingFactor:
     """A CHOLMOD factor that records the shape of every right-hand side it solves."""
 
