@@ -13,8 +13,11 @@ Two ways to get C from ONE factorisation per body:
   ``L22`` (2n x 2n) of the factor is the Cholesky factor of the Schur complement
   ``S_b = L22 L22^T`` and ``C_b = S_b^{-1}`` is formed in place from it (LAPACK
   ``potri``, no extra sparse solves, no dense block larger than 2n x 2n; ``L22`` is read in
-  place from the supernodal factor, ``fem.supernodal``).  ``condense_bodies`` hands the
-  bodies' stiffnesses over one by one, without the block-diagonal K;
+  place from the supernodal factor, ``fem.supernodal``).  A body that is the mirror image of
+  the other (``K_2 = D K_1 D``) shares its factor, and ``C = C_1 + D C_1 D`` is block diagonal
+  (tangential / normal), its two blocks formed without potri's off-diagonal one
+  (:func:`mirror_compliance`).  ``condense_bodies`` hands the bodies' stiffnesses over one by
+  one, without the block-diagonal K;
 - other backends (or bodies coupled in K): blocked multi-RHS solves ``K^{-1} E``.
 All contact iterations then work with the small dense C.
 
@@ -37,7 +40,8 @@ from dataclasses import replace
 import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import solve_triangular
-from scipy.linalg.lapack import dpotri, dtpttr, dtrttp
+from scipy.linalg.blas import dsyrk, dtrmm
+from scipy.linalg.lapack import dlauum, dpotri, dtpttr, dtrtri, dtrttp
 from scipy.sparse.csgraph import connected_components
 
 from .bulk import Discretisation, reduced_bodies, reduced_stiffness
@@ -58,14 +62,27 @@ RHS_BLOCK = 256
 #: blocks starting at multiples of the group width keep every column in the group it has in
 #: the all-at-once sweep, hence its numbers bit for bit (cattaneo rings level 2, 42 increments:
 #: blocks of 4, 8, 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6, 41 not;
-#: tests/unit/test_fem_condense.py).
+#: tests/unit/test_fem_condense.py).  At level 6 a sweep's cost is proportional to its
+#: columns, so wider blocks buy little: CPU ms per column of one sweep of body 1 (1.35M dofs,
+#: two runs) 72-74 / 60-61 / 58 / 50-56 / 60-62 with 8 / 16 / 32 / 48 / 84 columns; 16 stays.
 RECOVERY_BLOCK = 16
-#: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last).  CHOLMOD's
-#: nested dissection beats its default (AMD) once the pair rows dominate the fill: cattaneo
-#: rings, body 1, numeric factorisation CPU s (nnz L; Prescott kernels, see body_order) amd /
-#: nesdis: level 2 0.29 / 0.37 (2.9M / 2.5M), level 3 1.6 / 1.15 (8.4M / 7.1M), level 4 9.3 /
-#: 5.6 (25M / 21M); so CHOLMOD's
-#: default (AMD) below NESDIS_MIN_DOFS free dofs of the body (level 2: 32k, level 3: 77k).
+#: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last), of their node
+#: graph (:func:`body_order`).  CHOLMOD's orderings on the node graph, cattaneo rings body 1,
+#: CPU s of the ordering (Python and CHOLMOD's analysis) + numeric factorisation, two runs each
+#: on the shared machine (SkylakeX kernels), factorisation flops (sum of squared column counts):
+#:   level (dofs)  nesdis                  metis                   amd
+#:   3 (77k)       .27-.39 + .25-.45 2.2G  .23-.25 + .27-.29 2.2G  .06-.10 + .31-.36 3.8G
+#:   4 (200k)      .69-.91 + .80-.85 11.5G .67-.77 + .84-1.27 11.6G .18-.28 + 1.00-1.45 18.6G
+#:   5 (513k)      2.09-2.23 + 2.8-3.1 65G 1.85-1.87 + 3.0-3.1 67G .52-.65 + 4.0-4.1 111G
+#:   6 (1.35M)     7.0-7.6 + 12.2-12.3 411G 6.1-6.6 + 13.4-14.3 424G 1.8-2.3 + 17.2-24.2 643G
+#: (the trailing block's potri, 0.05 / 0.20 / 1.11 / 7.7 s at levels 3-6, does not depend on
+#: it).  No other ordering saves the >= 2 s at level 6 that would pay for moving every FE
+#: number in its last bits: AMD orders 5 s faster but its factor costs 1.6x the flops (5-12 s
+#: more; in total 19.0-26.4 s against nesdis' 19.2-19.8) and holds 1.27x the entries (323M
+#: against 255M: the memory and the recovery's sweeps), METIS orders 0.6-0.9 s faster and
+#: factorises 1-2 s slower.  AMD (CHOLMOD's default)
+#: below NESDIS_MIN_DOFS free dofs of the body (level 2: 32k dofs; at level 3 AMD would save
+#: 0.1-0.3 s, nesdis is kept there for the same reason).
 INNER_ORDERING, NESDIS_MIN_DOFS = "nesdis", 50_000
 #: Body 2's stiffness is taken as the mirror image of body 1's (one factorisation for both,
 #: issue 28) when they agree to this relative to the largest entry, a backward error of the
@@ -193,8 +210,10 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
     trailing block is read, issue 28)."""
     (K1, idx1, local1), (K2, idx2, local2) = bodies
     signs = mirror_signs(K1, K2, local1, local2)
+    split = None
     if signs is not None:  # the mirror image of body 1: its factor, C_2 = D C_1 D
         bodies[1] = (None, idx2, local2)
+        split = sign_split(signs[local1])
     del K1, K2
     parts, C = [], None
     for b in range(len(bodies)):
@@ -202,13 +221,14 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
         bodies[b] = None
         if Kb is None:
             parts.append((idx, *parts[0][1:4], signs))
-            flip_add(C, signs[local])
+            if split is None:  # else C holds C_1 + D C_1 D already
+                flip_add(C, signs[local])
             continue
         perm = body_order(Kb, local)
         Kb = Kb[perm][:, perm].tocsc()  # the permuted copy replaces the body's own (issue 28)
         chol = natural_cholesky(Kb)
         del Kb
-        Cb, packed = trailing_compliance(chol, idx.size, local.size)
+        Cb, packed = trailing_compliance(chol, idx.size, local.size, split if b == 0 else None)
         parts.append((idx, perm, chol, packed, None))
         C = Cb if C is None else np.add(C, Cb, out=C)
         del Cb
@@ -297,18 +317,26 @@ def mirror_signs(K1: sp.csc_matrix, K2: sp.csc_matrix, g1: np.ndarray, g2: np.nd
     if K1.shape != K2.shape or not np.array_equal(g1, g2) or not (
             np.array_equal(K1.indptr, K2.indptr) and np.array_equal(K1.indices, K2.indices)):
         return None
-    scale = np.max(np.abs(K1.data), initial=0.0)
-    big = np.abs(K1.data) > MIRROR_SIGNIFICANT * scale  # couplings zero up to rounding: no sign
-    same = big & (np.sign(K1.data) * np.sign(K2.data) > 0)
-    graph = sp.csc_matrix((same.astype(np.int8), K1.indices, K1.indptr), shape=K1.shape,
+    a1, a2 = K1.data, K2.data
+    mag = np.abs(a1)
+    scale = np.max(mag, initial=0.0)
+    same = mag > MIRROR_SIGNIFICANT * scale  # couplings zero up to rounding: no sign
+    del mag
+    same &= ((a1 > 0) & (a2 > 0)) | ((a1 < 0) & (a2 < 0))  # d_i d_j = +1
+    graph = sp.csc_matrix((same.view(np.int8), K1.indices, K1.indptr), shape=K1.shape,
                           copy=True)
+    del same
     graph.eliminate_zeros()  # csgraph takes stored zeros as edges
     count, labels = connected_components(graph, directed=False)
+    del graph
     if count > 2:
         return None
     d = np.where(labels == labels[0], 1.0, -1.0)
-    cols = np.repeat(np.arange(K1.shape[1]), np.diff(K1.indptr))
-    err = np.abs(K2.data - d[K1.indices] * d[cols] * K1.data)
+    err = np.repeat(d, np.diff(K1.indptr))  # d_j d_i K1_ij, exact (d = +-1), then the error
+    err *= d[K1.indices]
+    err *= a1
+    np.subtract(a2, err, out=err)
+    np.abs(err, out=err)
     return d if np.all(err <= MIRROR_RTOL * scale) else None
 
 
@@ -335,10 +363,8 @@ def body_order(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
     moved last 1.9 / 6.8 s, 27M / 81M; METIS of the whole body so 1.5 / 6.6 s, 27M / 81M.
     The node graph instead of the dof graph: the same supernodal entries 26.7M / 80.0M / 255M
     and factorisation flops 11.7G / 65.3G / 412G at levels 4 / 5 / 6; ordering CPU s
-    0.90 / 2.7 / 9.0 -> 0.69 / 2.2 / 6.9; METIS instead of nesdis on the node graph 27.1M /
-    82.4M entries, 11.8G / 67.0G flops at levels 4 / 5.  With the CPU's kernels (SkylakeX)
-    this order's factorisation (analysis and numeric) takes 0.88 / 2.9 / 11.3-12.0 s at
-    levels 4 / 5 / 6.)"""
+    0.90 / 2.7 / 9.0 -> 0.69 / 2.2 / 6.9.  The orderings of the node graph compared at levels
+    3-6 with the CPU's kernels: beside INNER_ORDERING.)"""
     from sksparse.cholmod import analyze
 
     if not Kb.has_sorted_indices:
@@ -362,13 +388,17 @@ def dof_groups(Kb: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
     count = np.diff(ptr)
     on_gamma = np.zeros(n, dtype=bool)
     on_gamma[gamma] = True
-    cand = np.flatnonzero((count[:-1] == count[1:]) & (on_gamma[:-1] == on_gamma[1:]))
-    same = np.zeros(max(n - 1, 0), dtype=bool)  # dof i + 1 joins dof i's group
-    if cand.size:
-        lens = count[cand]
-        starts = np.cumsum(lens) - lens
-        at = concat_ranges(ptr[cand], lens)  # column i's entries
-        same[cand] = np.logical_and.reduceat(ind[at] == ind[at + np.repeat(lens, lens)], starts)
+    same = (count[:-1] == count[1:]) & (on_gamma[:-1] == on_gamma[1:])  # dof i + 1 joins i
+    if n > 1 and same.any():
+        m = int(ptr[n - 1])  # the entries of columns 0 .. n-2, each against the entry
+        wide = np.int32 if 2 * ind.size < np.iinfo(np.int32).max else np.int64
+        ahead = np.repeat(count[:-1].astype(wide), count[:-1])  # count[i] further on
+        ahead += np.arange(m, dtype=wide)  # (column i + 1's entry when the counts agree)
+        np.minimum(ahead, ind.size - 1, out=ahead)  # past the end only where counts differ
+        eq = ind[:m] == ind[ahead]
+        del ahead
+        full = np.flatnonzero(count[:-1])  # reduceat takes no empty segment
+        same[full] &= np.logical_and.reduceat(eq, ptr[full])
     return np.r_[0, np.cumsum(~same)]
 
 
@@ -397,24 +427,70 @@ def natural_cholesky(Kp: sp.csc_matrix):
     return cholesky(Kp, ordering_method="natural")
 
 
-def trailing_compliance(chol, n: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+def trailing_compliance(chol, n: int, m: int, split: int | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
     """``(C_b, packed)`` from a body's factor (n x n) with its m pair dofs last: ``C_b =
     (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing factor block ``L22``
     (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and ``L22`` itself
-    packed (lower, LAPACK ``trttp``) for the recovery's backward solves.  ``L22`` is read in
-    place from the supernodal factor (``fem.supernodal``); only a factor that module cannot
-    read goes through ``chol.L()``, a converted copy of the whole factor (level 6's peak
-    memory before issue 28)."""
+    packed (lower, LAPACK ``trttp``) for the recovery's backward solves.  With ``split``
+    (:func:`sign_split` of a mirror body's signs) ``C_b + D C_b D`` instead, by
+    :func:`mirror_compliance`.  Lower triangles only.  ``L22`` is read in place from the
+    supernodal factor (``fem.supernodal``); only a factor that module cannot read goes
+    through ``chol.L()``, a converted copy of the whole factor (level 6's peak memory before
+    issue 28)."""
     L22 = trailing_block(chol, n, m)
     if L22 is None:
         L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
     packed, info = dtrttp(L22, uplo="L")
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK trttp failed (info={info})")
+    if split is not None:
+        return mirror_compliance(L22, split), packed
     Cb, info = dpotri(L22, lower=1, overwrite_c=1)
     if info != 0:
         raise ConvergenceError(f"compliance of a body: LAPACK potri failed (info={info})")
     return Cb, packed
+
+
+def sign_split(d: np.ndarray) -> int | None:
+    """k if the signs d (+-1) are one sign on their first k entries and the other on the rest
+    (0 < k < d.size), else None: a mirror body's pair dofs ``[t..., n...]`` (y -> -y flips
+    the n dofs), on which ``C_1 + D C_1 D`` is block diagonal (``1 + d_i d_j = 0`` between the
+    blocks)."""
+    k = int(np.argmax(d != d[0])) if d.size else 0
+    return k if k > 0 and np.all(d[k:] == -d[0]) else None
+
+
+def mirror_compliance(L22: np.ndarray, k: int) -> np.ndarray:
+    """``C_b + D C_b D = 2 diag(X_11, X_22)`` on its lower triangle, in place of ``L22``
+    (Fortran order, as potri; D = +1 on the first k pair dofs, -1 on the rest or the reverse;
+    ``X = S^{-1}``, ``S = L22 L22^T``), without the off-diagonal block of X that potri would
+    compute only for it to cancel (issue 28: 5.3 -> 4.3 n^3 flops for m = 2n; m = 8778, the
+    cattaneo rings level 6, one BLAS thread: 7.4-7.6 s CPU -> 5.6-6.2 s).  With ``L22 =
+    [[L11, 0], [L21, L22']]``, ``A = L11^{-1}``, ``E = L22'^{-1}``: ``X_22 = E^T E`` and
+    ``X_11 = A^T A + B^T B``, ``B = -E L21 A`` (LAPACK trtri, lauum, BLAS trmm, syrk; the
+    strict upper triangle is left to :func:`mirror_lower`).  Besides ``L22`` it holds three
+    blocks of a quarter of its size (A, E, B) at a time."""
+    A, info_a = dtrtri(L22[:k, :k], lower=1, overwrite_c=1)
+    E, info_e = dtrtri(L22[k:, k:], lower=1, overwrite_c=1)
+    if info_a != 0 or info_e != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK trtri failed "
+                               f"(info={info_a}, {info_e})")
+    B = dtrmm(1.0, A, L22[k:, :k], side=1, lower=1)  # L21 A
+    B = dtrmm(-1.0, E, B, side=0, lower=1, overwrite_b=1)  # -E L21 A
+    C = L22  # its blocks are copied out: the result goes in its place
+    C[k:, :k] = 0.0
+    X, info = dlauum(E, lower=1, overwrite_c=1)  # E^T E
+    if info != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK lauum failed (info={info})")
+    np.multiply(X, 2.0, out=C[k:, k:])
+    del E, X
+    X, info = dlauum(A, lower=1, overwrite_c=1)  # A^T A
+    if info != 0:
+        raise ConvergenceError(f"compliance of a body: LAPACK lauum failed (info={info})")
+    X = dsyrk(1.0, B, beta=1.0, c=X, trans=1, lower=1, overwrite_c=1)  # + B^T B
+    np.multiply(X, 2.0, out=C[:k, :k])
+    return C
 
 
 def mirror_lower(A: np.ndarray) -> None:

@@ -220,6 +220,36 @@ def test_flip_add_on_the_lower_triangle_then_mirror_lower_gives_c_plus_dcd(m):
     assert np.array_equal(got, C + d[:, None] * C * d[None, :])
 
 
+@pytest.mark.parametrize(("d", "k"), [([1, 1, -1, -1, -1], 2), ([-1, 1, 1], 1), ([1, 1], None),
+                                      ([1, -1, 1], None), ([1, -1, -1, 1], None), ([], None)])
+def test_sign_split_finds_one_sign_then_the_other(d, k):
+    from fem.condense import sign_split
+
+    assert sign_split(np.array(d, dtype=float)) == k
+
+
+@pytest.mark.parametrize(("m", "k"), [(6, 3), (7, 2), (300, 150), (301, 120)])
+def test_mirror_compliance_is_potri_plus_its_flip_to_rounding(m, k):
+    """The block-diagonal route gives potri's C + D C D (D = +1 on the first k dofs, -1 on
+    the rest) on the lower triangle to rounding, zero between the blocks, in L22's place."""
+    from scipy.linalg.lapack import dpotri
+
+    from fem.condense import flip_add, mirror_compliance
+
+    rng = np.random.default_rng(m)
+    L22 = np.asfortranarray(np.tril(rng.normal(size=(m, m))) / np.sqrt(m))
+    L22[np.diag_indices(m)] = 1.0 + rng.random(m)
+    ref, info = dpotri(L22.copy(order="F"), lower=1)
+    assert info == 0
+    flip_add(ref, np.r_[np.ones(k), -np.ones(m - k)])
+    ref = np.tril(ref)
+    got = mirror_compliance(L22, k)
+    assert got is L22 and got.flags.f_contiguous
+    got = np.tril(got)
+    assert not got[k:, :k].any()
+    assert np.max(np.abs(got - ref)) <= 1e-13 * np.abs(ref).max()
+
+
 class CountingFactor:
     """A CHOLMOD factor that records the shape of every right-hand side it solves."""
 
@@ -414,6 +444,40 @@ def test_dof_groups_are_runs_of_one_pattern_on_one_side_of_the_pair_dofs():
     keep = np.r_[0:7, 8:32]  # node 3's y dof removed (prescribed): its x dof alone
     gid = dof_groups(K[keep][:, keep].tocsc(), np.array([], dtype=int))
     assert np.array_equal(gid[:9], [0, 0, 1, 1, 2, 2, 3, 4, 4]) and gid[-1] == 15
+
+
+def groups_by_columns(K: sp.csc_matrix, gamma: np.ndarray) -> np.ndarray:
+    """dof_groups' definition column by column: dof i + 1 joins dof i's group when both have
+    the same row indices (sorted) and lie on the same side of gamma."""
+    on = np.isin(np.arange(K.shape[0]), gamma)
+    col = [K.indices[K.indptr[i]:K.indptr[i + 1]] for i in range(K.shape[0])]
+    joins = [np.array_equal(col[i], col[i + 1]) and on[i] == on[i + 1]
+             for i in range(K.shape[0] - 1)]
+    return np.r_[0, np.cumsum(~np.array(joins, dtype=bool))]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_dof_groups_equal_the_column_by_column_definition(seed):
+    """Random patterns with runs of repeated columns, columns of unequal counts side by side
+    (the vectorised comparison reads past a shorter neighbour), an empty column, the last
+    column longer than the one before it."""
+    from fem.condense import dof_groups
+
+    rng = np.random.default_rng(seed)
+    n = 40
+    cols = []
+    while len(cols) < n:
+        rows = np.sort(rng.choice(n, size=rng.integers(1, 6), replace=False))
+        cols += [rows] * int(rng.integers(1, 4))
+        if rng.random() < 0.3:  # same count, different rows
+            cols.append(np.sort(np.r_[rows[:-1], (rows[-1] + 1) % n]))
+    cols = cols[:n - 2] + [np.array([], dtype=int), np.arange(0, n, 3)]
+    indptr = np.r_[0, np.cumsum([c.size for c in cols])]
+    K = sp.csc_matrix((np.ones(indptr[-1]), np.concatenate(cols), indptr), shape=(n, n))
+    K.has_sorted_indices = True
+    gamma = np.sort(rng.choice(n, size=5, replace=False))
+    for g in (gamma, np.array([], dtype=int)):
+        assert np.array_equal(dof_groups(K, g), groups_by_columns(K, g))
 
 
 def test_node_graph_ordering_gives_the_compliance_of_a_reference_solve(monkeypatch):
