@@ -236,7 +236,8 @@ def matvec(prob: InterfaceProblem, sets: Sets, X: np.ndarray) -> np.ndarray:
 def relative_displacement(prob: InterfaceProblem, x: np.ndarray) -> np.ndarray:
     """``d = C lam + B z`` at every pair for the solution x."""
     n = prob.n
-    return compliance_product(prob.C, x[: 2 * n], None, prob.split) + prob.plate_matrix() @ x[2 * n :]
+    lam, z = x[: 2 * n], x[2 * n :]
+    return compliance_product(prob.C, lam, None, prob.split) + prob.plate_matrix() @ z
 
 
 def compliance_product(C: np.ndarray, lam: np.ndarray, rows: np.ndarray | None = None,
@@ -244,7 +245,9 @@ def compliance_product(C: np.ndarray, lam: np.ndarray, rows: np.ndarray | None =
     """``(C @ lam)[rows]`` (all rows if None; ``rows`` sorted), reading only the columns of C
     where lam has non-zero rows (the active pairs of an iterate, a few changed rows of a
     reference solve).  Sets of pairs are a few runs of neighbours (contact and stick zones):
-    the product is taken block by block on views of C, without gathering a copy."""
+    the product is taken block by block on views of C, without gathering a copy.  ``split``
+    (``InterfaceProblem.split``): C's blocks across the tangential and normal halves are zero
+    and skipped (the runs are cut there)."""
     nz = np.flatnonzero(np.any(lam != 0, axis=1) if lam.ndim == 2 else lam != 0)
     rows = np.arange(C.shape[0]) if rows is None else rows
     out = np.zeros((rows.size, *lam.shape[1:]))
