@@ -222,14 +222,19 @@ def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
         x = inner_axis(windows, kinks, rate)
         p, t = ring_body(x, h, rate.growth, xc, W, H)
         p = snap_interface_kinks(p, t, outer_kinks(windows, kinks, rate))
-        upper = MeshQuad(p, t)
-        lower = MeshQuad(p * np.array([[1.0], [-1.0]]), t[::-1].copy())
-        return from_bodies(upper, lower, "generated")
+        return from_bodies(MeshQuad(p, t), mirror_body(MeshQuad(p, t)), "generated")
     x = window_axis(windows, kinks, spec, W)
     depth = depth_axis(h, H, NEAR_DEPTH * max(b - a for a, b in windows), spec)
-    lower = MeshQuad.init_tensor(x, np.r_[-depth[::-1], 0.0])
     upper = MeshQuad.init_tensor(x, np.r_[0.0, depth])
-    return from_bodies(upper, lower, "generated")
+    return from_bodies(upper, mirror_body(upper), "generated")
+
+
+def mirror_body(upper: MeshQuad) -> MeshQuad:
+    """Body 2 as the mirror image (y -> -y) of body 1 with the same node and element numbering
+    (each element's nodes reversed to keep it counter-clockwise): between elastically similar
+    bodies ``fem.condense`` then factorises one body for both and the compliance's
+    tangential-normal blocks are zero (``fem.activeset`` factorises them apart)."""
+    return MeshQuad(upper.p * np.array([[1.0], [-1.0]]), upper.t[::-1].copy())
 
 
 def snap_interface_kinks(p: np.ndarray, t: np.ndarray, kinks) -> np.ndarray:
