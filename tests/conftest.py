@@ -18,6 +18,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import fem.linsolve  # noqa: E402, F401
 
 # isort: split
+import multiprocessing  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -25,6 +26,14 @@ import pytest  # noqa: E402
 from hypothesis import HealthCheck, settings  # noqa: E402
 from scipy.integrate import quad  # noqa: E402
 from scipy.special import roots_jacobi  # noqa: E402
+
+from compare.sweep.backends import FORKSERVER_PRELOAD  # noqa: E402
+
+# The session has one forkserver, started by the first pool that needs it (the report's, before
+# the sweeps): with the sweep's preload from the start, sweep workers start as they do under
+# `multicontact sweep` (without it ~2 s of imports each); report and audit workers fork from
+# the same server (their memory limit is still their own: the server is not this process).
+multiprocessing.get_context("forkserver").set_forkserver_preload(list(FORKSERVER_PRELOAD))
 
 settings.register_profile(
     "multicontact", deadline=None, derandomize=True,
@@ -133,3 +142,20 @@ def points_outside() -> Callable:
 @pytest.fixture
 def points_inside() -> Callable:
     return _points_inside
+
+
+@pytest.fixture(scope="session")
+def refined_run(contact_case) -> Callable:
+    """``refined_run(name, level)``: the library case refined as ``multicontact converge`` refines
+    it (level and far field: compare.convergence.refined_growth), run once per session by the
+    plugin's ``contact_case`` (at the library level: the library run itself).  Shared by the
+    tests of several files: read it, never change it."""
+    from compare.cases import load_case
+    from compare.convergence import refined_growth
+
+    def run(name: str, level: int):
+        case = load_case(name)
+        changes = {"level": level, "growth": refined_growth(case, level)}
+        return contact_case(name, **({} if case.with_fem(**changes) == case else changes))
+
+    return run

@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from compare import load_case, run_case
+from compare import load_case
 from compare.cli import main
 from compare.external import write_result
 from compare.stress import STRESS_METRICS
@@ -16,22 +16,23 @@ from compare.testing import assert_agrees
 from compare.verify import verify
 
 
-def exported(name: str, tmp_path_factory):
-    """run_case of a library case and its history exported in the exchange format."""
-    res = run_case(name)
+def exported(name: str, contact_case, tmp_path_factory):
+    """run_case of a library case (the session's run, shared with test_compare_agreement: read
+    only here) and its history exported in the exchange format."""
+    res = contact_case(name)
     folder = tmp_path_factory.mktemp("export") / name
     write_result(res.fem, folder, case=name)
     return res, folder
 
 
 @pytest.fixture(scope="module")
-def cattaneo(tmp_path_factory):
-    return exported("cattaneo", tmp_path_factory)
+def cattaneo(contact_case, tmp_path_factory):
+    return exported("cattaneo", contact_case, tmp_path_factory)
 
 
 @pytest.fixture(scope="module")
-def applied_moment(tmp_path_factory):
-    return exported("applied_moment", tmp_path_factory)
+def applied_moment(contact_case, tmp_path_factory):
+    return exported("applied_moment", contact_case, tmp_path_factory)
 
 
 @pytest.mark.parametrize("name", ["cattaneo", "applied_moment"])

@@ -47,9 +47,9 @@ def level_case(level: int):
 
 
 @pytest.fixture(scope="module")
-def runs():
-    an = solve_case(load_case("cattaneo"))
-    return [run_case(level_case(lv), analytic=an) for lv in LEVELS]
+def runs(refined_run):
+    """The runs of level_case at LEVELS (the session's, shared with test_stress_convergence)."""
+    return [refined_run("cattaneo", lv) for lv in LEVELS]
 
 
 @pytest.fixture(scope="module")

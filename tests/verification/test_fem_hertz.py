@@ -5,6 +5,8 @@ half-width ``a = sqrt(2 A P R / pi)``, peak pressure ``p0 = a / (A R)``,
 ``p(x) = p0 sqrt(1 - x^2/a^2)``, ``A = 4 (1 - nu^2) / E``.
 """
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -32,7 +34,15 @@ def hertz_pressure(x):
 
 
 def solve(level=1, order=1, **mesh_kw):
-    """Stage 1 only on a mesh of the given level / order."""
+    """Stage 1 only on a mesh of the given level / order (computed once per session: level 1,
+    order 1 serves test_hertz_width_default_mesh[1] and test_hertz_converges_under_refinement,
+    which only read it)."""
+    return _solve(level, order, tuple(sorted(mesh_kw.items())))
+
+
+@functools.cache
+def _solve(level: int, order: int, mesh_kw: tuple) -> fem.FemHistory:
+    mesh_kw = dict(mesh_kw)
     return fem.solve_history(
         hertz_gap,
         P,

@@ -16,7 +16,6 @@ import pytest
 from compare import metrics as mt
 from compare.analytic_side import solve_case
 from compare.cases import load_case
-from compare.convergence import refined_growth
 from compare.run import run_case
 
 MIN_H_ORDER = 0.8
@@ -34,11 +33,11 @@ def _study(name: str, variants: list[dict]) -> tuple[list, list]:
     return runs, [r.metrics for r in runs]
 
 
-def test_stress_shape_error_converges_under_h():
-    case = load_case("cattaneo")
-    levels = (-1, 0, 1)
-    runs, m = _study("cattaneo", [{"level": L, "growth": refined_growth(case, L)}
-                                   for L in levels])
+def test_stress_shape_error_converges_under_h(refined_run):
+    """cattaneo at levels -1, 0, 1 as ``converge`` refines it (the session's runs, shared with
+    test_verify_sequence and, at the library level 1, test_compare_agreement)."""
+    runs = [refined_run("cattaneo", L) for L in (-1, 0, 1)]
+    m = [r.metrics for r in runs]
     err = [x["stress_shape_error"] for x in m]
     order = mt.observed_order([r.fem.h_min for r in runs], err)
     assert order > MIN_H_ORDER, (order, err)
