@@ -276,7 +276,10 @@ def index_runs(idx: np.ndarray, split: int | None = None) -> list[tuple[int, int
     at ``split`` too if given)."""
     if idx.size == 0:
         return []
-    cut = np.flatnonzero((np.diff(idx) != 1) | ((idx[1:] == split) if split else False)) + 1
+    gap = np.diff(idx) != 1
+    if split is not None:
+        gap |= idx[1:] == split
+    cut = np.flatnonzero(gap) + 1
     starts, ends = np.r_[idx[0], idx[cut]], np.r_[idx[cut - 1], idx[-1]] + 1
     return list(zip(starts.tolist(), ends.tolist(), strict=True))
 

@@ -42,6 +42,12 @@ import numpy as np
 from .activeset import OPEN, SLIP, STICK, ActiveSetSolver, NotConverged, make_sets, rhs
 
 
+def uncoupled(C: np.ndarray) -> bool:
+    """Whether the tangential-normal blocks of C (order ``[t..., n...]``) are exactly zero."""
+    n = C.shape[0] // 2
+    return not (np.any(C[:n, n:]) or np.any(C[n:, :n]))
+
+
 @dataclass(frozen=True)
 class InterfaceProblem:
     """Condensed interface problem of the candidate pairs (finite h0).
@@ -90,8 +96,7 @@ class InterfaceProblem:
     def split(self) -> int | None:
         """n if C's tangential-normal blocks are exactly zero (the bodies are mirror images of
         each other: elastically similar, mirrored meshes), else None."""
-        n = self.n
-        return None if np.any(self.C[:n, n:]) or np.any(self.C[n:, :n]) else n
+        return self.n if uncoupled(self.C) else None
 
     @cached_property
     def compliance_scale(self) -> np.ndarray:
