@@ -18,7 +18,6 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import fem.linsolve  # noqa: E402, F401
 
 # isort: split
-import multiprocessing  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -26,14 +25,6 @@ import pytest  # noqa: E402
 from hypothesis import HealthCheck, settings  # noqa: E402
 from scipy.integrate import quad  # noqa: E402
 from scipy.special import roots_jacobi  # noqa: E402
-
-from compare.sweep.backends import FORKSERVER_PRELOAD  # noqa: E402
-
-# The session has one forkserver, started by the first pool that needs it (the report's, before
-# the sweeps): with the sweep's preload from the start, sweep workers start as they do under
-# `multicontact sweep` (without it ~2 s of imports each); report and audit workers fork from
-# the same server (their memory limit is still their own: the server is not this process).
-multiprocessing.get_context("forkserver").set_forkserver_preload(list(FORKSERVER_PRELOAD))
 
 settings.register_profile(
     "multicontact", deadline=None, derandomize=True,

@@ -16,7 +16,6 @@ disagreement: ``bem_unresolved`` (the BEM's two resolutions disagree on the zone
 from __future__ import annotations
 
 import json
-import multiprocessing
 import resource
 import signal
 import time
@@ -30,6 +29,7 @@ import numpy as np
 
 import analytic
 from compare import bem
+from compare._forkserver import forkserver_context
 from compare.audit import checks
 from compare.audit.cases import AuditCase, make_case
 from compare.fileio import write_atomic
@@ -43,7 +43,6 @@ WORKER_MEMORY = 4 * 2**30
 Workers start from a fresh interpreter (forkserver), so the limit is the worker's own: a forked
 worker would inherit the caller's address space (a test session that ran FE studies first left
 a worker of the 500-case audit short of memory)."""
-WORKER_START = "forkserver"
 INCONCLUSIVE = ("bem_unresolved", "no_reference")
 SOLVE_TARGETS = {"p95": 0.5, "max": 3.0}
 """Targets for the solve CPU time [s] over an audit (issue 29): a user should meet no case
@@ -219,8 +218,8 @@ def run_audit(seeds: list[int], jobs: int = 1, n_bem: int = checks.BEM_N,
     the pool is shut down (its workers and semaphores released) before the interrupt goes on:
     the caller keeps what ``report`` received."""
     out = []
-    ctx = multiprocessing.get_context(WORKER_START)
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_limit_memory) as pool:
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=forkserver_context(),
+                             initializer=_limit_memory) as pool:
         futures = [pool.submit(audit_seed, seed, n_bem) for seed in seeds]
         try:
             for future in futures:

@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing as mp
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from compare._forkserver import forkserver_context
 from compare.cases import Case, case_from_dict, load_case
 from compare.convergence import ConvergenceStudy, convergence
 from compare.errors import CaseError
@@ -220,8 +220,7 @@ def _run_units(units: list[tuple], workers: int):
     if workers <= 1 or len(units) <= 1:
         yield from (fn(*args) for fn, *args in units)
         return
-    ctx = mp.get_context("forkserver")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=forkserver_context()) as pool:
         futures = [pool.submit(fn, *args) for fn, *args in units]
         for f in futures:
             yield f.result()

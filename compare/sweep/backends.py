@@ -22,6 +22,7 @@ from concurrent.futures import wait as futures_wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
+from compare._forkserver import forkserver_context
 from compare.errors import SweepError
 from compare.sweep.tasks import execute, infrastructure_failure
 
@@ -112,19 +113,9 @@ def _init_worker(coordinator: tuple[int, str]) -> None:
     watch_coordinator(coordinator)
 
 
-#: Modules the forkserver imports once, so that each worker forked from it starts without
-#: importing them (~2 s of interpreter work per worker on 2 cores).  One forkserver serves a
-#: whole process and its preload counts only if set before it starts: a process that starts it
-#: for other pools first (a test session: the report's) sets this list itself (tests/conftest.py).
-FORKSERVER_PRELOAD = ("compare.sweep.tasks", "analytic", "fem")
-
-
 def _pool(workers: int) -> ProcessPoolExecutor:
-    import multiprocessing as mp
-
-    ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(list(FORKSERVER_PRELOAD))
-    return ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+    return ProcessPoolExecutor(max_workers=workers, mp_context=forkserver_context(),
+                               initializer=_init_worker,
                                initargs=(process_identity(os.getpid()),))
 
 
