@@ -1,11 +1,14 @@
 """Cauchy integrals ``F(w) = int f(s) / (s - w) ds`` and ``F'(w)`` of the tractions sampled on
 panels (:mod:`analytic._traction_panels`), at any ``w`` with ``Im w >= 0``.
 
-Far targets use the plain Gauss sums (a smooth sub-interval's one coarse block, the panels of
-the others).  A target whose pole ``cos t = tau`` lies close to a panel (Bernstein radius below
-``RHO_NEAR``) gets that panel's integral again on sub-panels graded geometrically (ratio
-``GRADE``) towards the pole, with G interpolated from the panel's nodes (no further density
-evaluations); it stays accurate to rounding at any depth.
+Plain Gauss sums, sub-interval by sub-interval: a smooth sub-interval's one coarse block for
+the targets outside a disc around it, its panels for the others (and always the panels of a
+sub-interval with a kink end).  A target whose pole ``cos t = tau`` lies close to a panel whose
+sums it took (Bernstein radius below ``RHO_NEAR``) gets that panel's integral again on
+sub-panels graded geometrically (ratio ``GRADE``) towards the pole on each side, as many as
+reach that side's panel end, with G interpolated from the panel's nodes (no further density
+evaluations); it stays accurate to rounding at any depth.  Every target's value has the same
+bits in any set of targets and any block size.
 """
 
 from __future__ import annotations
@@ -14,8 +17,11 @@ import numpy as np
 
 from analytic._traction_panels import PANEL_NODES, RHO_NEAR, Quadrature, Rule, legendre
 
-GRADE = 3.0
-"""Ratio of consecutive refined sub-panels (a sub-panel's pole is >= its half-width away)."""
+GRADE = 4.0
+"""Ratio of consecutive refined sub-panels: the pole's Bernstein radius about every sub-panel is
+then >= 3 = RHO_NEAR, the panels' own far-target standard (3 gave the same Hertz / Cattaneo
+fields to 1.4e-12 of p0 against McEwen and Smith-Liu at depths 1e-12..2 half-widths, with 21 %
+more sub-panels)."""
 MIN_POLE = 1e-13
 """Smallest pole distance (panel units) resolved; closer targets use this distance."""
 TARGET_CHUNK = 2048
@@ -28,7 +34,7 @@ NEAR_MARGIN = 1.05
 SNAP = 1e-3
 """A pole's foot within SNAP x its distance of a panel end is put on the end."""
 REFINED_NODES = 2**15
-"""Sub-panel nodes (pairs x 2 x levels x PANEL_NODES) per block of the refined sums: the Legendre
+"""Sub-panel nodes (pairs x sub-panels x PANEL_NODES) per block of the refined sums: the Legendre
 table is 16 x this many floats (4 MB; 256 pairs of any depth took up to 20 MB at the surface);
 a pair's sums do not depend on its block."""
 
@@ -36,6 +42,9 @@ a pair's sums do not depend on its block."""
 def _far(s: np.ndarray, WG: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Gauss sums of F and F' for every target over all nodes (n_targets, 2), in row blocks of
     about CHUNK_ENTRIES kernel entries formed in one reused buffer (k1, then k1^2 in place)."""
+    if w.size == 1:  # a one-row product runs as a vector: summed as a row of two instead
+        F, dF = _far(s, WG, np.repeat(w, 2))
+        return F[:1], dF[:1]
     WG = WG.astype(complex)  # complex @ complex runs in BLAS
     F = np.empty((w.size, WG.shape[1]), complex)
     dF = np.empty_like(F)
@@ -49,6 +58,22 @@ def _far(s: np.ndarray, WG: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.n
         np.multiply(k, k, out=k)
         dF[i:j] = k @ WG
     return F, dF
+
+
+def _kernel(a: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Real and imaginary parts of ``1/(a - i z)`` (``a`` real offsets, ``z`` the heights)."""
+    r = 1.0 / (a * a + z * z)
+    return a * r, z * r
+
+
+def _squares(kr: np.ndarray, ki: np.ndarray) -> np.ndarray:
+    """``(Re k, Im k, Re k^2, Im k^2)`` stacked on a new first axis."""
+    K = np.empty((4, *kr.shape))
+    K[0], K[1] = kr, ki
+    np.multiply(kr - ki, kr + ki, out=K[2])
+    np.multiply(kr, ki, out=K[3])
+    K[3] *= 2.0
+    return K
 
 
 def _row_blocks(n: int, rows: int) -> np.ndarray:
@@ -107,17 +132,27 @@ def _near_pairs(rule: Rule, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return it[near], jp[near], up[near]
 
 
-def _levels(d: np.ndarray) -> np.ndarray:
-    """Graded sub-panels per side needed to reach 2 (the panel width) from a central width d."""
-    return np.ceil(np.log(4.0 / d) / np.log(GRADE)).astype(int) + 1
+def _side_levels(extent: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Graded sub-panels on one side of the foot needed to reach ``extent`` (the offset of the
+    panel end on that side, panel units) from a central width d (at least 1: the central
+    half)."""
+    with np.errstate(divide="ignore"):
+        k = np.ceil(np.log(2.0 * extent / d) / np.log(GRADE)) + 1
+    return np.maximum(k, 1).astype(int)
 
 
-def _subpanels(lo: np.ndarray, hi: np.ndarray, d: np.ndarray, levels: int
+def _subpanels(lo: np.ndarray, hi: np.ndarray, d: np.ndarray, left: np.ndarray, total: int
                ) -> tuple[np.ndarray, np.ndarray]:
     """Sub-panel ends as offsets from the pole's foot (exact near it however small d is),
-    graded by GRADE from a central width d and clipped to the panel's offsets ``[lo, hi]``."""
-    r = 0.5 * d[:, None] * GRADE ** np.arange(levels)[None, :]
-    ends = np.clip(np.concatenate([-r[:, ::-1], r], axis=1), lo[:, None], hi[:, None])
+    graded by GRADE from a central width d: ``left`` ends before the foot (per pair) and
+    ``total - left`` after it, clipped to the panel's offsets ``[lo, hi]``, whose ends close
+    the outer sub-panels."""
+    j = np.arange(total)[None, :]
+    before = j < left[:, None]
+    k = np.where(before, left[:, None] - 1 - j, j - left[:, None])
+    ends = np.where(before, -0.5, 0.5) * d[:, None] * GRADE ** k
+    ends = np.clip(ends, lo[:, None], hi[:, None])
+    ends[:, 0], ends[:, -1] = lo, hi
     return ends[:, :-1], ends[:, 1:]
 
 
@@ -127,7 +162,8 @@ def _refined(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
 
     In t: the pole's foot ``tc`` (its real part clipped to the panel) and ``d`` its distance in
     panel units.  A foot on a panel end is that end exactly, so neighbouring panels meet
-    without gap or overlap and agree on ``s(tc) - x``.
+    without gap or overlap and agree on ``s(tc) - x``.  Each side of the foot gets the levels
+    that reach its panel end (pairs are batched by the number of sub-panels).
     """
     ta, tb = rule.ta[jp], rule.tb[jp]
     th = 0.5 * (tb - ta)
@@ -136,28 +172,30 @@ def _refined(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
     d = np.maximum(np.abs(tp - tc) / th, MIN_POLE)
     for end in (ta, tb):  # a foot a rounding error from a panel end is that end
         tc = np.where(np.abs(tc - end) < SNAP * d * th, end, tc)
-    lev = _levels(d)
+    left = _side_levels((tc - ta) / th, d)
+    total = left + _side_levels((tb - tc) / th, d)
     F = np.empty((w.size, rule.G.shape[1]), complex)
     dF = np.empty_like(F)
-    for L in np.unique(lev):
-        sel = np.flatnonzero(lev == L)
-        pairs = max(1, REFINED_NODES // (2 * int(L) * PANEL_NODES))
+    for n in np.unique(total):
+        sel = np.flatnonzero(total == n)
+        pairs = max(1, REFINED_NODES // (int(n) * PANEL_NODES))
         for i in range(0, sel.size, pairs):
             k = sel[i:i + pairs]
-            F[k], dF[k] = _graded_sums(rule, w[k], jp[k], tc[k], d[k], int(L))
+            F[k], dF[k] = _graded_sums(rule, w[k], jp[k], tc[k], d[k], left[k], int(n))
     return F, dF
 
 
 def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: np.ndarray,
-                 levels: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss sums of F, F' on the graded sub-panels of one batch (same number of levels).
+                 left: np.ndarray, total: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss sums of F, F' on the graded sub-panels of one batch (``total`` sub-panel ends,
+    ``left`` of them before the foot).
 
     ``s - x`` is formed as ``(s(t_c) - x) + half (cos t_c - cos t)`` with ``t - t_c`` from the
     sub-panel offsets, so it keeps its relative accuracy at depths far below the node spacing.
     """
     ta, tb = rule.ta[jp], rule.tb[jp]
     th = 0.5 * (tb - ta)
-    lo, hi = _subpanels((ta - tc) / th, (tb - tc) / th, d, levels)
+    lo, hi = _subpanels((ta - tc) / th, (tb - tc) / th, d, left, total)
     u, wq, _ = legendre(PANEL_NODES)
     c, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
     dt = th[:, None] * (c[:, :, None] + h[:, :, None] * u).reshape(len(jp), -1)
@@ -167,104 +205,103 @@ def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: n
     e = ((end - w.real[:, None]) + off0
          + 2 * half * np.sin(t0 + 0.5 * dt) * np.sin(0.5 * dt))
     uf = (t0 + dt - 0.5 * (ta + tb)[:, None]) / th[:, None]
-    G = (_legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]).astype(complex)
-    inv = 1.0 / (e - 1j * w.imag[:, None])
-    k1 = wf * inv
-    return _sums(k1, G), _sums(k1 * inv, G)
+    G = _legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]
+    kr, ki = _kernel(e, w.imag[:, None])
+    return _pair_sums(wf, kr, ki, G)
 
 
 def _legvander(x: np.ndarray, deg: int) -> np.ndarray:
-    """``np.polynomial.legendre.legvander(x, deg)`` with the same operations in the same order
-    (bit for bit the same array, same memory layout) but in place, without the temporaries of
-    every degree (the refined sums spend most of their time here)."""
+    """``np.polynomial.legendre.legvander(x, deg)`` in place, without the temporaries of every
+    degree: ``P_i = a_i x P_(i-1) - b_i P_(i-2)``, ``a_i = (2i - 1)/i``, ``b_i = (i - 1)/i``
+    (the refined sums spend much of their time here)."""
     v = np.empty((deg + 1, *x.shape))
-    v[0] = x * 0 + 1
+    v[0] = 1.0
     if deg > 0:
         v[1] = x
-        a, b = np.empty_like(x), np.empty_like(x)
+        b = np.empty_like(x)
         for i in range(2, deg + 1):
-            np.multiply(v[i - 1], x, out=a)
-            a *= 2 * i - 1
-            np.multiply(v[i - 2], i - 1, out=b)
-            np.subtract(a, b, out=a)
-            np.divide(a, i, out=v[i])
+            np.multiply(v[i - 1], x, out=v[i])
+            v[i] *= (2 * i - 1) / i
+            np.multiply(v[i - 2], (i - 1) / i, out=b)
+            v[i] -= b
     return np.moveaxis(v, 0, -1)
 
 
-def _sums(k: np.ndarray, G: np.ndarray) -> np.ndarray:
-    """Per row n: ``sum_f k[n, f] G[n, f, :]`` (G complex: complex @ complex runs in BLAS)."""
-    return (k[:, None, :] @ G)[:, 0, :]
+def _pair_sums(wt: np.ndarray, kr: np.ndarray, ki: np.ndarray, G: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Per row n: ``F = sum_f wt k G`` and ``F' = sum_f wt k^2 G`` (``k = kr + i ki`` at the
+    row's nodes f, G (n, f, 2) real): one real (4, f) x (f, 2) product per row."""
+    K = _squares(kr, ki)
+    K *= wt[None]
+    S = np.moveaxis(K, 0, 1) @ G
+    return S[:, 0] + 1j * S[:, 1], S[:, 2] + 1j * S[:, 3]
 
 
-def _weighted(rule: Rule) -> np.ndarray:
-    """``wt G`` of every node of a rule as complex (n_nodes, 2), formed once per evaluation."""
-    return (rule.wt[:, None] * rule.G).astype(complex)
-
-
-def _block_sums(rule: Rule, WG: np.ndarray, w: np.ndarray, jp: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target); ``WG``:
-    the rule's :func:`_weighted` nodal data."""
+def _block_sums(rule: Rule, w: np.ndarray, jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target)."""
     idx = rule.nodes(jp)
-    k1 = 1.0 / (rule.s[idx] - w[:, None])
-    WG = WG[idx]
-    return _sums(k1, WG), _sums(k1 * k1, WG)
+    kr, ki = _kernel(rule.s[idx] - w.real[:, None], w.imag[:, None])
+    return _pair_sums(rule.wt[idx], kr, ki, rule.G[idx])
 
 
-def _correct(F: np.ndarray, dF: np.ndarray, it: np.ndarray, new, old) -> None:
-    np.add.at(F, it, new[0] - old[0])
-    np.add.at(dF, it, new[1] - old[1])
+def _scatter(F: np.ndarray, it: np.ndarray, values: np.ndarray) -> None:
+    """``F[it] += values`` with repeated indices summed (per column and part: bincount)."""
+    for c in range(F.shape[1]):
+        F[:, c].real += np.bincount(it, values[:, c].real, minlength=F.shape[0])
+        F[:, c].imag += np.bincount(it, values[:, c].imag, minlength=F.shape[0])
+
+
+def _near_block(rule: Rule, j: int, w: np.ndarray) -> np.ndarray:
+    """Mask of the targets inside the disc that holds block j's RHO_NEAR ellipse (a superset
+    of the near targets: the others lie outside the ellipse)."""
+    c, r = _near_discs(rule)
+    return np.abs(w - c[j]) < r[j]
+
+
+def _add_far(F: np.ndarray, dF: np.ndarray, rule: Rule, blocks: np.ndarray, w: np.ndarray,
+             sel: np.ndarray) -> None:
+    """Add the plain Gauss sums of ``blocks`` for the targets ``sel``."""
+    if sel.size:
+        idx = rule.nodes(blocks).ravel()
+        f, df = _far(rule.s[idx], rule.wt[idx, None] * rule.G[idx], w[sel])
+        F[sel] += f
+        dF[sel] += df
+
+
+def _sub_sums(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Plain Gauss sums, sub-interval by sub-interval: its one coarse block for the targets far
+    from it (a smooth sub-interval), its panels for the others.  Returns F, F' and the
+    (n_targets, n_sub) mask of the targets that took the panels."""
+    F = np.zeros((w.size, 2), complex)
+    dF = np.zeros_like(F)
+    panels_used = np.ones((w.size, quad.smooth.size), bool)
+    for k in range(quad.smooth.size):
+        if quad.smooth[k]:
+            panels_used[:, k] = _near_block(quad.coarse, k, w)
+        near = panels_used[:, k]
+        _add_far(F, dF, quad.panels, np.flatnonzero(quad.panels.parent == k), w,
+                 np.flatnonzero(near))
+        _add_far(F, dF, quad.coarse, np.array([k]), w, np.flatnonzero(~near))
+    return F, dF, panels_used
 
 
 def cauchy(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``F(w)`` and ``F'(w)`` for Im w >= 0 (the principal value on the contact surface).
 
-    Far sums: the coarse block of every smooth sub-interval and the panels of the others.
-    Targets near a coarse block get its panels instead; targets near a panel (whose sums they
-    use: the panel ellipse lies inside its coarse block's) get graded sub-panels instead.
+    Plain sums: per sub-interval its coarse block (smooth sub-intervals, targets far from it)
+    or its panels (:func:`_sub_sums`).  Targets near a panel whose sums they took get that
+    panel's integral on graded sub-panels instead.  Every target's value is the same bits in
+    any set of targets.
     """
     pan = quad.panels
-    in_far = ~quad.smooth[pan.parent]
-    nodes = pan.nodes(np.flatnonzero(in_far)).ravel()
-    crs = quad.coarse.nodes(np.flatnonzero(quad.smooth[quad.coarse.parent]
-                                           & (quad.coarse.half > 0))).ravel()
-    s = np.concatenate([quad.coarse.s[crs], pan.s[nodes]])
-    WG = np.concatenate([quad.coarse.wt[crs, None] * quad.coarse.G[crs],
-                         pan.wt[nodes, None] * pan.G[nodes]])
-    F, dF = _far(s, WG, w)
-    weighted = _weighted(quad.coarse), _weighted(pan)
+    F, dF, panels_used = _sub_sums(quad, w)
     for i in range(0, w.size, TARGET_CHUNK):
         part = w[i:i + TARGET_CHUNK]
-        near_sub = _swap_coarse(quad, weighted, part, F[i:i + TARGET_CHUNK],
-                                dF[i:i + TARGET_CHUNK])
         it, jp, up = _near_pairs(pan, part)
-        keep = in_far[jp] | near_sub[it, pan.parent[jp]]
+        keep = panels_used[i + it, pan.parent[jp]]
         it, jp, up = it[keep], jp[keep], up[keep]
         if it.size:
-            _correct(F, dF, i + it, _refined(pan, part[it], jp, up),
-                     _block_sums(pan, weighted[1], part[it], jp))
+            new, old = _refined(pan, part[it], jp, up), _block_sums(pan, part[it], jp)
+            _scatter(F[i:i + TARGET_CHUNK], it, new[0] - old[0])
+            _scatter(dF[i:i + TARGET_CHUNK], it, new[1] - old[1])
     return F, dF
-
-
-def _swap_coarse(quad: Quadrature, weighted: tuple[np.ndarray, np.ndarray], w: np.ndarray,
-                 F: np.ndarray, dF: np.ndarray) -> np.ndarray:
-    """Replace the coarse sums by panel sums for targets near a smooth sub-interval (in place);
-    returns the (n_targets, n_sub) mask of those pairs.  ``weighted``: the coarse and panel
-    rules' :func:`_weighted` nodal data."""
-    near = np.zeros((w.size, quad.smooth.size), bool)
-    if not quad.smooth.any():
-        return near
-    it, jc, _ = _near_pairs(quad.coarse, w)
-    use = quad.smooth[quad.coarse.parent[jc]]  # the others are summed by panels anyway
-    it, jc = it[use], jc[use]
-    sub = quad.coarse.parent[jc]
-    near[it, sub] = True
-    _correct(F, dF, it, (0.0, 0.0), _block_sums(quad.coarse, weighted[0], w[it], jc))
-    first = np.searchsorted(quad.panels.parent, sub)  # a sub-interval's panels are consecutive
-    count = np.bincount(quad.panels.parent, minlength=quad.smooth.size)[sub]
-    for j in range(int(count.max(initial=0))):
-        m = j < count
-        _correct(F, dF, it[m], _block_sums(quad.panels, weighted[1], w[it[m]], first[m] + j),
-                 (0.0, 0.0))
-    return near
-
