@@ -33,6 +33,10 @@ NEAR_MARGIN = 1.05
 """Safety factor on the radius of the disc that pre-selects near targets (boundary sampling)."""
 SNAP = 1e-3
 """A pole's foot within SNAP x its distance of a panel end is put on the end."""
+UPSAMPLE = 4
+"""Equal sub-panels of a panel's upsampled rule (G at its fixed nodes interpolated once per
+panel): a near target whose pole lies outside the RHO_NEAR ellipse of every one of them takes
+it instead of sub-panels graded towards its pole (no per-target interpolation)."""
 REFINED_NODES = 2**15
 """Sub-panel nodes (pairs x sub-panels x PANEL_NODES) per block of the refined sums: the Legendre
 table is 16 x this many floats (4 MB; 256 pairs of any depth took up to 20 MB at the surface);
@@ -156,9 +160,52 @@ def _subpanels(lo: np.ndarray, hi: np.ndarray, d: np.ndarray, left: np.ndarray, 
     return ends[:, :-1], ends[:, 1:]
 
 
-def _refined(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
+def _refined(rule: Rule, upsampled: tuple, w: np.ndarray, jp: np.ndarray, up: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray]:
-    """F, F' contributions of blocks ``jp`` for targets ``w`` on graded sub-panels.
+    """F, F' contributions of blocks ``jp`` for targets ``w`` with poles ``up``: on the block's
+    upsampled rule (:func:`upsample`) where that suffices, else on graded sub-panels."""
+    F = np.empty((w.size, rule.G.shape[1]), complex)
+    dF = np.empty_like(F)
+    ok = _upsampled_suffices(up)
+    for sel, sums in ((np.flatnonzero(ok), lambda k: _upsampled_sums(upsampled, w[k], jp[k])),
+                      (np.flatnonzero(~ok), lambda k: _graded(rule, w[k], jp[k], up[k]))):
+        if sel.size:
+            F[sel], dF[sel] = sums(sel)
+    return F, dF
+
+
+def _upsampled_suffices(up: np.ndarray) -> np.ndarray:
+    """True where the pole ``up`` (panel units) lies outside the RHO_NEAR ellipse of every
+    sub-panel of the upsampled rule."""
+    edges = np.linspace(-1.0, 1.0, UPSAMPLE + 1)
+    c, h = 0.5 * (edges[:-1] + edges[1:]), 0.5 * (edges[1:] - edges[:-1])
+    return np.all(_bernstein((up[:, None] - c[None, :]) / h[None, :]) >= RHO_NEAR, axis=1)
+
+
+def upsample(rule: Rule) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(s, wt, G)`` of every block on UPSAMPLE equal sub-panels of PANEL_NODES Gauss nodes,
+    shapes (n_blocks, M) and (n_blocks, M, 2), G from the block's Legendre coefficients."""
+    u, wq, _ = legendre(PANEL_NODES)
+    edges = np.linspace(-1.0, 1.0, UPSAMPLE + 1)
+    c, h = 0.5 * (edges[:-1] + edges[1:]), 0.5 * (edges[1:] - edges[:-1])
+    uu, ww = (c[:, None] + h[:, None] * u).ravel(), (h[:, None] * wq).ravel()
+    th = 0.5 * (rule.tb - rule.ta)
+    t = 0.5 * (rule.ta + rule.tb)[:, None] + th[:, None] * uu
+    off, end = rule.position(np.arange(rule.ta.size)[:, None], t)
+    return end + off, th[:, None] * ww, _legvander(uu, PANEL_NODES - 1) @ rule.coef
+
+
+def _upsampled_sums(upsampled: tuple, w: np.ndarray, jp: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The sums of blocks ``jp`` on their upsampled rules for targets ``w`` (one per target)."""
+    s, wt, G = upsampled
+    kr, ki = _kernel(s[jp] - w.real[:, None], w.imag[:, None])
+    return _pair_sums(wt[jp], kr, ki, G[jp])
+
+
+def _graded(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """F, F' of blocks ``jp`` for targets ``w`` on sub-panels graded towards the pole ``up``.
 
     In t: the pole's foot ``tc`` (its real part clipped to the panel) and ``d`` its distance in
     panel units.  A foot on a panel end is that end exactly, so neighbouring panels meet
@@ -295,13 +342,15 @@ def cauchy(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     pan = quad.panels
     F, dF, panels_used = _sub_sums(quad, w)
+    upsampled = upsample(pan)
     for i in range(0, w.size, TARGET_CHUNK):
         part = w[i:i + TARGET_CHUNK]
         it, jp, up = _near_pairs(pan, part)
         keep = panels_used[i + it, pan.parent[jp]]
         it, jp, up = it[keep], jp[keep], up[keep]
         if it.size:
-            new, old = _refined(pan, part[it], jp, up), _block_sums(pan, part[it], jp)
+            new = _refined(pan, upsampled, part[it], jp, up)
+            old = _block_sums(pan, part[it], jp)
             _scatter(F[i:i + TARGET_CHUNK], it, new[0] - old[0])
             _scatter(dF[i:i + TARGET_CHUNK], it, new[1] - old[1])
     return F, dF
