@@ -88,6 +88,19 @@ SPARSE_ROW = 2
 GATHER_ROWS = 256
 #: Reference factorisations kept (predictor-type and converged-type sets of an increment).
 POOL = 2
+#: The capacitance matrix S of a system is solved by a bordered solve with the LU of an
+#: earlier S of the same reference (its base, :class:`Capacitance`) while the border (rows of J
+#: that entered, left or changed kind since the base) is at most this fraction of |J|; beyond
+#: it S is factorised afresh and becomes the base.
+BORDER_FRACTION = 0.125
+#: Normwise backward error ``|S t - g| / (|S| |t| + |g|)`` (max-norms) of a bordered solve
+#: above which it is redone with a fresh LU of S (a bordered solve is as accurate as the LU
+#: unless the base is nearly singular).
+BORDER_BACKWARD_ERROR = 1e-12
+#: A Schur complement pivot at most this fraction of its largest entry means a (numerically)
+#: singular S: S is then factorised afresh, so that a singular system raises as it did
+#: without bordered solves (:func:`checked_lu`; a backward error check cannot tell).
+SCHUR_PIVOT = 1e-13
 
 
 class NotConverged(Exception):
@@ -309,6 +322,9 @@ class Update:
     slot_of: np.ndarray = field(init=False)  # slot of each row, -1 if not in J
     m: int = 0
     computed: int = 0  # rows plus columns of S computed so far (for tests and benchmarks)
+    base: Capacitance | None = None  # the LU of an earlier S (bordered solves)
+    factored: int = 0  # LUs of S made so far (for tests and benchmarks)
+    bordered: int = 0  # systems that began with a bordered solve (for tests and benchmarks)
 
     def __post_init__(self) -> None:
         self.Wt, self.AJ = np.zeros((0, self.size)), np.zeros((0, self.size))
@@ -429,6 +445,143 @@ def update(ref: Reference, prob: InterfaceProblem, sets: Sets, J: np.ndarray,
         u.computed += redo.size + new.size
     u.m = m
     return u
+
+
+@dataclass(frozen=True, eq=False)
+class Capacitance:
+    """LU factors of the capacitance matrix S of one system and the row index and kind of
+    each of its slots (``slot_of``: the slot of each row of the full system, -1 if none)."""
+
+    lu: tuple
+    idx: np.ndarray
+    kinds: np.ndarray
+    slot_of: np.ndarray
+
+
+def factor_capacitance(u: Update, what: str) -> Capacitance:
+    """LU of the current S of u (NotConverged(what) if singular), with its slots' rows."""
+    m = u.m
+    slot_of = np.full(u.size, -1, np.int64)
+    slot_of[u.idx[:m]] = np.arange(m)
+    return Capacitance(lu=checked_lu(u.S[:m, :m], what), idx=u.idx[:m].copy(),
+                       kinds=u.kinds[:m].copy(), slot_of=slot_of)
+
+
+@dataclass(frozen=True, eq=False)
+class Bordered:
+    """Solves with the current S (slots of :class:`Update`) by the LU of a base S_b
+    (:class:`Capacitance`).  Entries of S depend only on the row and kind of their row's slot
+    and on the row of their column's slot (``A[j] A0^{-1} e_i``), so S and S_b share the
+    block of the slots whose rows kept their kind (U).  With y over the base's slots, the
+    unknowns t of the new slots and multipliers of the base's rows that left (L) or changed
+    kind (C), the bordered system
+
+        [[S_b, V, E_LC], [H, Z, 0], [E_L^T, 0, 0]]
+
+    (V: the columns of the new slots on U, 0 elsewhere; H, Z: the rows of C (new kind) and of
+    the new slots; the multipliers absorb the rows L and C of S_b, the last block row sets
+    ``y_L = 0``) is equivalent to S t = g (same solution, singular iff S is), and is solved
+    by the Schur complement ``Z - H S_b^{-1} [V, E_LC]`` of order k = |new| + |L| + |C|:
+    ``O(k |J|^2)`` per system instead of an ``O(|J|^3)`` LU."""
+
+    lu: tuple  # the base's LU
+    size: int  # slots of the base
+    cur: np.ndarray  # current slots that hold a row of the base
+    at: np.ndarray  # their base slots
+    same: np.ndarray  # those whose row kept its kind (U), current slots
+    new: np.ndarray  # current slots whose row is not in the base
+    border: np.ndarray  # current slots of the border rows (C, then the new ones)
+    left: np.ndarray  # base slots whose row left J
+    H: np.ndarray  # S[border][:, cur]
+    X: np.ndarray  # S_b^{-1} [V, E_LC]
+    schur: tuple | None  # LU of the Schur complement (None if k = 0)
+
+    def solve(self, g: np.ndarray) -> np.ndarray:
+        """``S^{-1} g`` (slot order)."""
+        gb = np.zeros(self.size)
+        gb[self.at[self.same]] = g[self.cur[self.same]]
+        y = lu_solve(self.lu, gb, check_finite=False)
+        z = np.zeros(0)
+        if self.schur is not None:
+            r = np.r_[g[self.border] - self.H @ y[self.at], -y[self.left]]
+            z = lu_solve(self.schur, r, check_finite=False)
+            y -= self.X @ z
+        t = np.empty(g.size)
+        t[self.cur] = y[self.at]
+        t[self.new] = z[: self.new.size]
+        return t
+
+
+def bordered(base: Capacitance, u: Update, what: str) -> Bordered | None:
+    """The bordered solver of u's current S by the base's LU, or None if its border exceeds
+    :data:`BORDER_FRACTION` of |J| or its Schur complement is singular to working precision
+    (:data:`SCHUR_PIVOT`)."""
+    m = u.m
+    S = u.S[:m, :m]
+    idx, kinds = u.idx[:m], u.kinds[:m]
+    old = base.slot_of[idx]
+    cur = np.flatnonzero(old >= 0)
+    at = old[cur]
+    same = base.kinds[at] == kinds[cur]
+    new = np.flatnonzero(old < 0)
+    present = np.zeros(base.idx.size, bool)
+    present[at] = True
+    left = np.flatnonzero(~present)
+    changed = cur[~same]
+    k = new.size + left.size + changed.size
+    if k > BORDER_FRACTION * m:
+        return None
+    V = np.zeros((base.idx.size, k))
+    V[at[same], : new.size] = S[np.ix_(cur[same], new)]
+    V[np.r_[left, at[~same]], np.arange(new.size, k)] = 1.0
+    X = lu_solve(base.lu, V, check_finite=False)
+    border = np.r_[changed, new]
+    H = S[np.ix_(border, cur)]
+    schur = None
+    if k:
+        Z = np.zeros((k, k))
+        Z[: border.size, : new.size] = S[np.ix_(border, new)]
+        Z[: border.size] -= H @ X[at]
+        Z[border.size :] = -X[left]
+        try:
+            schur = checked_lu(Z, what)
+        except NotConverged:
+            return None
+        if np.abs(np.diag(schur[0])).min() <= SCHUR_PIVOT * np.abs(Z).max():
+            return None  # S is singular to working precision: its own LU decides
+    return Bordered(lu=base.lu, size=base.idx.size, cur=cur, at=at, same=np.flatnonzero(same),
+                    new=new, border=border, left=left, H=H, X=X, schur=schur)
+
+
+def capacitance_solver(u: Update, what: str) -> Callable[[np.ndarray], np.ndarray]:
+    """``g -> S^{-1} g`` for u's current capacitance S: a bordered solve with the base's LU
+    (:func:`bordered`) while it applies, else (or if a bordered solve's backward error
+    exceeds :data:`BORDER_BACKWARD_ERROR`) a fresh LU of S (NotConverged(what) if S is
+    singular), which becomes the base."""
+    S = u.S[: u.m, : u.m]
+    border = None if u.base is None else bordered(u.base, u, what)
+    if border is None:
+        u.base = factor_capacitance(u, what)
+        u.factored += 1
+    else:
+        u.bordered += 1
+    norm = []
+
+    def solve(g: np.ndarray) -> np.ndarray:
+        nonlocal border
+        if border is not None:
+            t = border.solve(g)
+            if not norm:
+                norm.append(np.abs(S).sum(axis=1).max())
+            res = np.abs(S @ t - g).max()
+            if res <= BORDER_BACKWARD_ERROR * (norm[0] * np.abs(t).max() + np.abs(g).max()):
+                return t
+            border = None
+            u.base = factor_capacitance(u, what)
+            u.factored += 1
+        return lu_solve(u.base.lu, g, check_finite=False)
+
+    return solve
 
 
 @dataclass(eq=False)
@@ -563,9 +716,8 @@ class ActiveSetSolver:
         cap, u = None, None
         if J.size:
             u = update(ref, prob, sets, J, kinds[J])
-            cap = checked_lu(
-                u.S[: u.m, : u.m],
-                f"singular active-set system ({np.count_nonzero(sets.status)} active pairs)",
+            cap = capacitance_solver(
+                u, f"singular active-set system ({np.count_nonzero(sets.status)} active pairs)"
             )
 
         part = None if cap is None else u.dense_part()  # one gather for both solves
@@ -574,7 +726,7 @@ class ActiveSetSolver:
             if cap is None:
                 return x0
             m = u.m
-            t = lu_solve(cap, u.times(x0, part) - r[u.idx[:m]], check_finite=False)
+            t = cap(u.times(x0, part) - r[u.idx[:m]])
             return x0 - u.Wt[:m].T @ t
 
         x = apply(y, b)
