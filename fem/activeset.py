@@ -93,6 +93,9 @@ POOL = 2
 #: that entered, left or changed kind since the base) is at most this fraction of |J|; beyond
 #: it S is factorised afresh and becomes the base.
 BORDER_FRACTION = 0.125
+#: Below this |J| the capacitance is always factorised afresh (its LU costs less than the
+#: bordered solve's bookkeeping).
+BORDER_MIN_RANK = 128
 #: Normwise backward error ``|S t - g| / (|S| |t| + |g|)`` (max-norms) of a bordered solve
 #: above which it is redone with a fresh LU of S (a bordered solve is as accurate as the LU
 #: unless the base is nearly singular).
@@ -513,9 +516,9 @@ class Bordered:
 
 
 def bordered(base: Capacitance, u: Update, what: str) -> Bordered | None:
-    """The bordered solver of u's current S by the base's LU, or None if its border exceeds
-    :data:`BORDER_FRACTION` of |J| or its Schur complement is singular to working precision
-    (:data:`SCHUR_PIVOT`)."""
+    """The bordered solver of u's current S by the base's LU, or None if |J| is below
+    :data:`BORDER_MIN_RANK`, the border exceeds :data:`BORDER_FRACTION` of |J|, or its Schur
+    complement is singular to working precision (:data:`SCHUR_PIVOT`)."""
     m = u.m
     S = u.S[:m, :m]
     idx, kinds = u.idx[:m], u.kinds[:m]
@@ -529,7 +532,7 @@ def bordered(base: Capacitance, u: Update, what: str) -> Bordered | None:
     left = np.flatnonzero(~present)
     changed = cur[~same]
     k = new.size + left.size + changed.size
-    if k > BORDER_FRACTION * m:
+    if m < BORDER_MIN_RANK or k > BORDER_FRACTION * m:
         return None
     V = np.zeros((base.idx.size, k))
     V[at[same], : new.size] = S[np.ix_(cur[same], new)]

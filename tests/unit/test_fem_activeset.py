@@ -289,6 +289,7 @@ def test_bordered_capacitance_solves_equal_dense_solves(walk, coupling, monkeypa
     from fem.activeset import capacitance_solver, update
 
     monkeypatch.setattr(activeset, "BORDER_FRACTION", 1.0)
+    monkeypatch.setattr(activeset, "BORDER_MIN_RANK", 0)
     monkeypatch.setattr(activeset, "REFACTOR_FRACTION", 1.0)
     n = 40
     prob = problem(n, lock_theta=False, coupling=coupling)
@@ -321,8 +322,9 @@ def test_bordered_capacitance_solves_equal_dense_solves(walk, coupling, monkeypa
 
 
 def test_bordered_capacitance_limits_and_falls_back_to_a_fresh_lu(monkeypatch):
-    """A border beyond BORDER_FRACTION of |J|, or a bordered solve whose backward error
-    exceeds BORDER_BACKWARD_ERROR, is replaced by a fresh LU of S (the new base)."""
+    """A |J| below BORDER_MIN_RANK, a border beyond BORDER_FRACTION of |J|, or a bordered
+    solve whose backward error exceeds BORDER_BACKWARD_ERROR: S is factorised afresh (the
+    new base)."""
     from fem import activeset
     from fem.activeset import capacitance_solver, update
 
@@ -343,14 +345,17 @@ def test_bordered_capacitance_limits_and_falls_back_to_a_fresh_lu(monkeypatch):
 
     monkeypatch.setattr(activeset, "BORDER_FRACTION", 0.2)
     u = step(6, 34)  # |J| = 16 rows (8 pairs)
-    u = step(6, 33)  # 2 rows leave: border 2 <= 0.2 * 14
-    assert (u.factored, u.bordered) == (1, 1)
-    u = step(9, 31)  # 8 rows leave: border 10 > 0.2 * 6
+    u = step(6, 33)  # 2 rows leave, but |J| = 14 < BORDER_MIN_RANK
+    assert (u.factored, u.bordered) == (2, 0)
+    monkeypatch.setattr(activeset, "BORDER_MIN_RANK", 0)
+    u = step(6, 34)  # 2 rows enter: border 2 <= 0.2 * 16
     assert (u.factored, u.bordered) == (2, 1)
+    u = step(9, 31)  # 10 rows leave: border 12 > 0.2 * 6
+    assert (u.factored, u.bordered) == (3, 1)
     monkeypatch.setattr(activeset, "BORDER_FRACTION", 0.5)
     monkeypatch.setattr(activeset, "BORDER_BACKWARD_ERROR", 0.0)
     u = step(9, 32)  # 2 rows enter: a bordered solve, rejected
-    assert (u.factored, u.bordered) == (3, 2)
+    assert (u.factored, u.bordered) == (4, 2)
 
 
 @pytest.mark.parametrize("perturbation", [0.0, 1e-15])
@@ -364,6 +369,7 @@ def test_singular_capacitance_is_factorised_afresh_and_raises_not_converged(pert
     from fem.activeset import NotConverged, capacitance_solver, update
 
     monkeypatch.setattr(activeset, "BORDER_FRACTION", 1.0)
+    monkeypatch.setattr(activeset, "BORDER_MIN_RANK", 0)
     n = 20
     prob = problem(n, lock_theta=False)
     ref = factor_reference(prob, zone_sets(n, 6, 14))
