@@ -392,3 +392,23 @@ def test_singular_capacitance_is_factorised_afresh_and_raises_not_converged(pert
             with pytest.raises(NotConverged, match="singular"):
                 capacitance_solver(u, "singular")(np.ones(u.m))
     assert (u.factored, u.bordered) == (1 + bool(perturbation), 0)
+
+
+@pytest.mark.parametrize("coupling", [0.0, 0.2])
+def test_reference_solves_of_unit_and_zero_columns_equal_dense_solves(coupling):
+    """The columns ``A0^{-1} e_j`` of tangential, normal, open and plate rows and zero
+    columns (a block's solve skips the columns of its right-hand side that are zero)."""
+    n = 40
+    prob = problem(n, lock_theta=False, coupling=coupling)
+    N = 2 * n + prob.n_plate
+    sets = zone_sets(n, 8, 32, slip=5, sign=-1.0)
+    ref = factor_reference(prob, sets)
+    cols = np.array([3, 9, 20, n + 9, n + 20, n + 35, 2 * n, 2 * n + 2])
+    B = np.zeros((N, cols.size + 2))
+    B[cols, np.arange(cols.size)] = 1.0
+    X = ref.solve(prob, B)
+    A = rows(prob, sets, np.arange(N))
+    assert np.allclose(X, np.linalg.solve(A, B), rtol=0, atol=1e-12 * np.abs(X).max())
+    assert np.all(X[:, cols.size :] == 0.0)
+    if coupling == 0.0:  # the tangential columns have no normal part
+        assert np.all(X[n : 2 * n, :3] == 0.0)
