@@ -32,17 +32,25 @@ normal rows and the P, M rows involve only ``lam_n``, ``v_p`` and theta, and the
 rows read ``lam_n`` only through the slip rows: A11 is block triangular too, and its normal
 block and the sticking pairs' tangential block (``lam_t``, ``u_p``) are factorised apart, the
 slip rows ``lam_t = b + mu s lam_n`` solved between them (LUs of half the size or less: a
-quarter of the work or less), and the products with C skip the zero blocks.  Cost per iteration:
+quarter of the work or less), and the products with C skip the zero blocks; a block's solve
+skips the zero columns of its right-hand side (the columns ``A0^{-1} e_j`` of tangential rows
+j have no normal part).  Cost per iteration:
 one solve with the reference factors (the refinement's; the first is shared by the
 increment), products with the active columns of C (``O(n n_active)``: the refinement's
 residual and ``d``), products with W and the dense rows of ``A[J]`` (``O(r N)``), one more
 solve per newly changed row (cached per reference), ``O(dr r N)`` for the capacitance matrix
-when dr rows of J change (:class:`Update` keeps J, W, ``A[J]`` and ``A[J] W`` between
-systems) and its LU, ``O(r^3)``, instead of an ``O(N_active^3)`` factorisation (cattaneo
-rings level 6, a system of stage 2 with r = 1240 rows of J, N_active = 4349, before the
-decoupled blocks: the products with C ~65 ms, the capacitance LU ~50 ms, the refinement's solve
-~16 ms; the decoupled blocks took the increments of the level's history from 15.9 to 9.6 s CPU,
-level 5 from 3.8 to 2.3 s, measured back to back); a new reference
+S when dr rows of J change (:class:`Update` keeps J, W, ``A[J]`` and ``A[J] W`` between
+systems) and solves with S: a bordered solve with the LU of an earlier S of the reference,
+``O(k r^2)`` for the k rows that entered, left or changed kind since (:class:`Bordered`), or
+a fresh LU, ``O(r^3)``, when k exceeds :data:`BORDER_FRACTION` of r; instead of an
+``O(N_active^3)`` factorisation.  Cattaneo rings level 6 (n = 4389, 91 Newton systems,
+r = 487 on average, at most ~1200), cProfile of the increments (8.0 s): the new W columns
+1.6 s, the 9 reference LUs 1.1 s, the products with C 2.0 s (``d`` and the residuals), the
+products with W and ``A[J]`` 1.6 s, S 0.5 s (43 fresh LUs, 48 bordered systems; 0.8 s with
+a fresh LU every system); the bordered solves and the zero columns took the increments from
+9.3 to 8.4 s CPU at level 6 (medians of 4, old and new alternating in one process; spreads
+8.4-11.2 and 7.3-10.4 s), from 2.3 to 2.1 s at level 5 (medians of 5, within the noise),
+0.41 to 0.40 s at level 4.  A new reference
 is factorised only when the rank ``r = |J|`` exceeds :data:`REFACTOR_FRACTION` of the active
 system's size.  A small pool of references (:data:`POOL`) serves the two kinds of matrices
 of a history: the elastic predictor (previously active pairs stick; after a change of stage
@@ -72,9 +80,20 @@ OPEN, STICK, SLIP = 0, 1, 2
 #: active system's size (and more than REFACTOR_MIN_RANK) differ from every reference
 #: (cattaneo level 3, n = 583, 204 Newton systems: 15 / 7 / 5 factorisations and 1.16 /
 #: 1.39 / 1.71 s CPU at 1/8, 1/4, 1/2; the factorisations grow like N^3, the capacitance
-#: work like r^2 N, so the larger fraction is meant for larger n: not measured beyond n = 583).
-#: With the secant predictor (fem.contact), cattaneo rings level 5, n = 2238, 89 systems:
-#: 13 / 7 / 4 factorisations and 4.84 / 4.24 / 7.51 s CPU of the increments at 1/8, 1/4, 1/2.
+#: work like r^2 N).  Re-measured with the decoupled references, the bordered capacitance
+#: solves and the zero-column solves (cattaneo rings, CPU s of the increments, in one process
+#: each level, median of 3 (level 6: mean of 2), the reference factorisations in brackets):
+#:
+#:   level (n)  run   1/16        1/8         1/4         3/8         1/2
+#:   4 (1150)    a      -        0.55 (13)   0.49 (8)      -        1.00 (5)
+#:   5 (2238)    a      -        1.72 (13)   1.55 (8)      -        2.85 (5)
+#:   5 (2238)    b   2.22 (22)   2.00 (13)   1.81 (8)   2.05 (7)      -
+#:   6 (4389)    a      -        8.29 (13)   8.52 (9)      -       16.2 (5)
+#:   6 (4389)    b   10.5 (22)   8.23 (13)   7.66 (9)   9.36 (7)      -
+#:
+#: (runs a and b at different machine loads): a quarter stays the best or level with an
+#: eighth; beyond it the updates' O(r N) products and new W columns outgrow the references
+#: they save, below it the references cost more than they save.
 REFACTOR_FRACTION = 0.25
 #: Below this rank an update is always used (tiny systems: factorising is cheap anyway).
 REFACTOR_MIN_RANK = 8
@@ -91,14 +110,18 @@ POOL = 2
 #: The capacitance matrix S of a system is solved by a bordered solve with the LU of an
 #: earlier S of the same reference (its base, :class:`Capacitance`) while the border (rows of J
 #: that entered, left or changed kind since the base) is at most this fraction of |J|; beyond
-#: it S is factorised afresh and becomes the base.
+#: it S is factorised afresh and becomes the base (cattaneo rings, CPU s in S's LUs and
+#: solves over the increments, fresh LU every system / 1/8 / 1/4: level 6 (91 systems,
+#: mean |J| 487) 0.86, 0.69 / 0.50, 0.59 / 0.62, 0.55 (two runs); level 5 0.15 / 0.14 /
+#: 0.13 of ~2 s, 1/16 and 1/2 alike).
 BORDER_FRACTION = 0.125
 #: Below this |J| the capacitance is always factorised afresh (its LU costs less than the
 #: bordered solve's bookkeeping).
 BORDER_MIN_RANK = 128
 #: Normwise backward error ``|S t - g| / (|S| |t| + |g|)`` (max-norms) of a bordered solve
 #: above which it is redone with a fresh LU of S (a bordered solve is as accurate as the LU
-#: unless the base is nearly singular).
+#: unless the base is nearly singular: cattaneo rings levels 4 / 5, at most 7.4e-16 / 1.7e-15
+#: against the LU's 7.4e-16 / 7.2e-16).
 BORDER_BACKWARD_ERROR = 1e-12
 #: A Schur complement pivot at most this fraction of its largest entry means a (numerically)
 #: singular S: S is then factorised afresh, so that a singular system raises as it did
