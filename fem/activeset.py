@@ -514,7 +514,7 @@ class Bordered:
     size: int  # slots of the base
     cur: np.ndarray  # current slots that hold a row of the base
     at: np.ndarray  # their base slots
-    same: np.ndarray  # those whose row kept its kind (U), current slots
+    same: np.ndarray  # positions in cur of those whose row kept its kind (U)
     new: np.ndarray  # current slots whose row is not in the base
     border: np.ndarray  # current slots of the border rows (C, then the new ones)
     left: np.ndarray  # base slots whose row left J
