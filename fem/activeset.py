@@ -32,17 +32,25 @@ normal rows and the P, M rows involve only ``lam_n``, ``v_p`` and theta, and the
 rows read ``lam_n`` only through the slip rows: A11 is block triangular too, and its normal
 block and the sticking pairs' tangential block (``lam_t``, ``u_p``) are factorised apart, the
 slip rows ``lam_t = b + mu s lam_n`` solved between them (LUs of half the size or less: a
-quarter of the work or less), and the products with C skip the zero blocks.  Cost per iteration:
+quarter of the work or less), and the products with C skip the zero blocks; a block's solve
+skips the zero columns of its right-hand side (the columns ``A0^{-1} e_j`` of tangential rows
+j have no normal part).  Cost per iteration:
 one solve with the reference factors (the refinement's; the first is shared by the
 increment), products with the active columns of C (``O(n n_active)``: the refinement's
 residual and ``d``), products with W and the dense rows of ``A[J]`` (``O(r N)``), one more
 solve per newly changed row (cached per reference), ``O(dr r N)`` for the capacitance matrix
-when dr rows of J change (:class:`Update` keeps J, W, ``A[J]`` and ``A[J] W`` between
-systems) and its LU, ``O(r^3)``, instead of an ``O(N_active^3)`` factorisation (cattaneo
-rings level 6, a system of stage 2 with r = 1240 rows of J, N_active = 4349, before the
-decoupled blocks: the products with C ~65 ms, the capacitance LU ~50 ms, the refinement's solve
-~16 ms; the decoupled blocks took the increments of the level's history from 15.9 to 9.6 s CPU,
-level 5 from 3.8 to 2.3 s, measured back to back); a new reference
+S when dr rows of J change (:class:`Update` keeps J, W, ``A[J]`` and ``A[J] W`` between
+systems) and solves with S: a bordered solve with the LU of an earlier S of the reference,
+``O(k r^2)`` for the k rows that entered, left or changed kind since (:class:`Bordered`), or
+a fresh LU, ``O(r^3)``, when k exceeds :data:`BORDER_FRACTION` of r; instead of an
+``O(N_active^3)`` factorisation.  Cattaneo rings level 6 (n = 4389, 91 Newton systems,
+r = 487 on average, at most ~1200), cProfile of the increments (8.0 s): the new W columns
+1.6 s, the 9 reference LUs 1.1 s, the products with C 2.0 s (``d`` and the residuals), the
+products with W and ``A[J]`` 1.6 s, S 0.5 s (43 fresh LUs, 48 bordered systems; 0.8 s with
+a fresh LU every system); the bordered solves and the zero columns took the increments from
+9.3 to 8.4 s CPU at level 6 (medians of 4, old and new alternating in one process; spreads
+8.4-11.2 and 7.3-10.4 s), from 2.3 to 2.1 s at level 5 (medians of 5, within the noise),
+0.41 to 0.40 s at level 4.  A new reference
 is factorised only when the rank ``r = |J|`` exceeds :data:`REFACTOR_FRACTION` of the active
 system's size.  A small pool of references (:data:`POOL`) serves the two kinds of matrices
 of a history: the elastic predictor (previously active pairs stick; after a change of stage
@@ -72,9 +80,20 @@ OPEN, STICK, SLIP = 0, 1, 2
 #: active system's size (and more than REFACTOR_MIN_RANK) differ from every reference
 #: (cattaneo level 3, n = 583, 204 Newton systems: 15 / 7 / 5 factorisations and 1.16 /
 #: 1.39 / 1.71 s CPU at 1/8, 1/4, 1/2; the factorisations grow like N^3, the capacitance
-#: work like r^2 N, so the larger fraction is meant for larger n: not measured beyond n = 583).
-#: With the secant predictor (fem.contact), cattaneo rings level 5, n = 2238, 89 systems:
-#: 13 / 7 / 4 factorisations and 4.84 / 4.24 / 7.51 s CPU of the increments at 1/8, 1/4, 1/2.
+#: work like r^2 N).  Re-measured with the decoupled references, the bordered capacitance
+#: solves and the zero-column solves (cattaneo rings, CPU s of the increments, in one process
+#: each level, median of 3 (level 6: mean of 2), the reference factorisations in brackets):
+#:
+#:   level (n)  run   1/16        1/8         1/4         3/8         1/2
+#:   4 (1150)    a      -        0.55 (13)   0.49 (8)      -        1.00 (5)
+#:   5 (2238)    a      -        1.72 (13)   1.55 (8)      -        2.85 (5)
+#:   5 (2238)    b   2.22 (22)   2.00 (13)   1.81 (8)   2.05 (7)      -
+#:   6 (4389)    a      -        8.29 (13)   8.52 (9)      -       16.2 (5)
+#:   6 (4389)    b   10.5 (22)   8.23 (13)   7.66 (9)   9.36 (7)      -
+#:
+#: (runs a and b at different machine loads): a quarter stays the best or level with an
+#: eighth; beyond it the updates' O(r N) products and new W columns outgrow the references
+#: they save, below it the references cost more than they save.
 REFACTOR_FRACTION = 0.25
 #: Below this rank an update is always used (tiny systems: factorising is cheap anyway).
 REFACTOR_MIN_RANK = 8
@@ -88,6 +107,26 @@ SPARSE_ROW = 2
 GATHER_ROWS = 256
 #: Reference factorisations kept (predictor-type and converged-type sets of an increment).
 POOL = 2
+#: The capacitance matrix S of a system is solved by a bordered solve with the LU of an
+#: earlier S of the same reference (its base, :class:`Capacitance`) while the border (rows of J
+#: that entered, left or changed kind since the base) is at most this fraction of |J|; beyond
+#: it S is factorised afresh and becomes the base (cattaneo rings, CPU s in S's LUs and
+#: solves over the increments, fresh LU every system / 1/8 / 1/4: level 6 (91 systems,
+#: mean |J| 487) 0.86, 0.69 / 0.50, 0.59 / 0.62, 0.55 (two runs); level 5 0.15 / 0.14 /
+#: 0.13 of ~2 s, 1/16 and 1/2 alike).
+BORDER_FRACTION = 0.125
+#: Below this |J| the capacitance is always factorised afresh (its LU costs less than the
+#: bordered solve's bookkeeping).
+BORDER_MIN_RANK = 128
+#: Normwise backward error ``|S t - g| / (|S| |t| + |g|)`` (max-norms) of a bordered solve
+#: above which it is redone with a fresh LU of S (a bordered solve is as accurate as the LU
+#: unless the base is nearly singular: cattaneo rings levels 4 / 5, at most 7.4e-16 / 1.7e-15
+#: against the LU's 7.4e-16 / 7.2e-16).
+BORDER_BACKWARD_ERROR = 1e-12
+#: A Schur complement pivot at most this fraction of its largest entry means a (numerically)
+#: singular S: S is then factorised afresh, so that a singular system raises as it did
+#: without bordered solves (:func:`checked_lu`; a backward error check cannot tell).
+SCHUR_PIVOT = 1e-13
 
 
 class NotConverged(Exception):
@@ -309,6 +348,9 @@ class Update:
     slot_of: np.ndarray = field(init=False)  # slot of each row, -1 if not in J
     m: int = 0
     computed: int = 0  # rows plus columns of S computed so far (for tests and benchmarks)
+    base: Capacitance | None = None  # the LU of an earlier S (bordered solves)
+    factored: int = 0  # LUs of S made so far (for tests and benchmarks)
+    bordered: int = 0  # systems that began with a bordered solve (for tests and benchmarks)
 
     def __post_init__(self) -> None:
         self.Wt, self.AJ = np.zeros((0, self.size)), np.zeros((0, self.size))
@@ -431,6 +473,143 @@ def update(ref: Reference, prob: InterfaceProblem, sets: Sets, J: np.ndarray,
     return u
 
 
+@dataclass(frozen=True, eq=False)
+class Capacitance:
+    """LU factors of the capacitance matrix S of one system and the row index and kind of
+    each of its slots (``slot_of``: the slot of each row of the full system, -1 if none)."""
+
+    lu: tuple
+    idx: np.ndarray
+    kinds: np.ndarray
+    slot_of: np.ndarray
+
+
+def factor_capacitance(u: Update, what: str) -> Capacitance:
+    """LU of the current S of u (NotConverged(what) if singular), with its slots' rows."""
+    m = u.m
+    slot_of = np.full(u.size, -1, np.int64)
+    slot_of[u.idx[:m]] = np.arange(m)
+    return Capacitance(lu=checked_lu(u.S[:m, :m], what), idx=u.idx[:m].copy(),
+                       kinds=u.kinds[:m].copy(), slot_of=slot_of)
+
+
+@dataclass(frozen=True, eq=False)
+class Bordered:
+    """Solves with the current S (slots of :class:`Update`) by the LU of a base S_b
+    (:class:`Capacitance`).  Entries of S depend only on the row and kind of their row's slot
+    and on the row of their column's slot (``A[j] A0^{-1} e_i``), so S and S_b share the
+    block of the slots whose rows kept their kind (U).  With y over the base's slots, the
+    unknowns t of the new slots and multipliers of the base's rows that left (L) or changed
+    kind (C), the bordered system
+
+        [[S_b, V, E_LC], [H, Z, 0], [E_L^T, 0, 0]]
+
+    (V: the columns of the new slots on U, 0 elsewhere; H, Z: the rows of C (new kind) and of
+    the new slots; the multipliers absorb the rows L and C of S_b, the last block row sets
+    ``y_L = 0``) is equivalent to S t = g (same solution, singular iff S is), and is solved
+    by the Schur complement ``Z - H S_b^{-1} [V, E_LC]`` of order k = |new| + |L| + |C|:
+    ``O(k |J|^2)`` per system instead of an ``O(|J|^3)`` LU."""
+
+    lu: tuple  # the base's LU
+    size: int  # slots of the base
+    cur: np.ndarray  # current slots that hold a row of the base
+    at: np.ndarray  # their base slots
+    same: np.ndarray  # positions in cur of those whose row kept its kind (U)
+    new: np.ndarray  # current slots whose row is not in the base
+    border: np.ndarray  # current slots of the border rows (C, then the new ones)
+    left: np.ndarray  # base slots whose row left J
+    H: np.ndarray  # S[border][:, cur]
+    X: np.ndarray  # S_b^{-1} [V, E_LC]
+    schur: tuple | None  # LU of the Schur complement (None if k = 0)
+
+    def solve(self, g: np.ndarray) -> np.ndarray:
+        """``S^{-1} g`` (slot order)."""
+        gb = np.zeros(self.size)
+        gb[self.at[self.same]] = g[self.cur[self.same]]
+        y = lu_solve(self.lu, gb, check_finite=False)
+        z = np.zeros(0)
+        if self.schur is not None:
+            r = np.r_[g[self.border] - self.H @ y[self.at], -y[self.left]]
+            z = lu_solve(self.schur, r, check_finite=False)
+            y -= self.X @ z
+        t = np.empty(g.size)
+        t[self.cur] = y[self.at]
+        t[self.new] = z[: self.new.size]
+        return t
+
+
+def bordered(base: Capacitance, u: Update, what: str) -> Bordered | None:
+    """The bordered solver of u's current S by the base's LU, or None if |J| is below
+    :data:`BORDER_MIN_RANK`, the border exceeds :data:`BORDER_FRACTION` of |J|, or its Schur
+    complement is singular to working precision (:data:`SCHUR_PIVOT`)."""
+    m = u.m
+    S = u.S[:m, :m]
+    idx, kinds = u.idx[:m], u.kinds[:m]
+    old = base.slot_of[idx]
+    cur = np.flatnonzero(old >= 0)
+    at = old[cur]
+    same = base.kinds[at] == kinds[cur]
+    new = np.flatnonzero(old < 0)
+    present = np.zeros(base.idx.size, bool)
+    present[at] = True
+    left = np.flatnonzero(~present)
+    changed = cur[~same]
+    k = new.size + left.size + changed.size
+    if m < BORDER_MIN_RANK or k > BORDER_FRACTION * m:
+        return None
+    V = np.zeros((base.idx.size, k))
+    V[at[same], : new.size] = S[np.ix_(cur[same], new)]
+    V[np.r_[left, at[~same]], np.arange(new.size, k)] = 1.0
+    X = lu_solve(base.lu, V, check_finite=False)
+    border = np.r_[changed, new]
+    H = S[np.ix_(border, cur)]
+    schur = None
+    if k:
+        Z = np.zeros((k, k))
+        Z[: border.size, : new.size] = S[np.ix_(border, new)]
+        Z[: border.size] -= H @ X[at]
+        Z[border.size :] = -X[left]
+        try:
+            schur = checked_lu(Z, what)
+        except NotConverged:
+            return None
+        if np.abs(np.diag(schur[0])).min() <= SCHUR_PIVOT * np.abs(Z).max():
+            return None  # S is singular to working precision: its own LU decides
+    return Bordered(lu=base.lu, size=base.idx.size, cur=cur, at=at, same=np.flatnonzero(same),
+                    new=new, border=border, left=left, H=H, X=X, schur=schur)
+
+
+def capacitance_solver(u: Update, what: str) -> Callable[[np.ndarray], np.ndarray]:
+    """``g -> S^{-1} g`` for u's current capacitance S: a bordered solve with the base's LU
+    (:func:`bordered`) while it applies, else (or if a bordered solve's backward error
+    exceeds :data:`BORDER_BACKWARD_ERROR`) a fresh LU of S (NotConverged(what) if S is
+    singular), which becomes the base."""
+    S = u.S[: u.m, : u.m]
+    border = None if u.base is None else bordered(u.base, u, what)
+    if border is None:
+        u.base = factor_capacitance(u, what)
+        u.factored += 1
+    else:
+        u.bordered += 1
+    norm = []
+
+    def solve(g: np.ndarray) -> np.ndarray:
+        nonlocal border
+        if border is not None:
+            t = border.solve(g)
+            if not norm:
+                norm.append(np.abs(S).sum(axis=1).max())
+            res = np.abs(S @ t - g).max()
+            if res <= BORDER_BACKWARD_ERROR * (norm[0] * np.abs(t).max() + np.abs(g).max()):
+                return t
+            border = None
+            u.base = factor_capacitance(u, what)
+            u.factored += 1
+        return lu_solve(u.base.lu, g, check_finite=False)
+
+    return solve
+
+
 @dataclass(eq=False)
 class Reference:
     """A factorised reference system: its sets, row kinds, the diagonal blocks of its active
@@ -460,7 +639,7 @@ class Reference:
         X = np.zeros_like(B)
         X[self.opn] = B[self.opn] / open_scale(prob)[self.opn][col]
         F = B - matvec(prob, self.sets, X) if self.opn.size else B.copy()
-        X[self.blocks[0]] = lu_solve(self.lus[0], F[self.blocks[0]], check_finite=False)
+        X[self.blocks[0]] = nonzero_solve(self.lus[0], F[self.blocks[0]])
         if len(self.blocks) == 1:
             return X
         s, tb = self.slip, self.blocks[1]
@@ -469,7 +648,7 @@ class Reference:
             Xs[s] = F[s] + (prob.mu * self.sets.sign[s])[col] * X[s + prob.n]
             X[s] = Xs[s]
             F[tb] -= matvec(prob, self.sets, Xs)[tb]
-        X[tb] = lu_solve(self.lus[1], F[tb], check_finite=False)
+        X[tb] = nonzero_solve(self.lus[1], F[tb])
         return X
 
     def base_solution(self, prob: InterfaceProblem, b: np.ndarray, b_ref: np.ndarray,
@@ -500,6 +679,21 @@ class Reference:
             for j, col in zip(new, np.ascontiguousarray(self.solve(prob, E).T), strict=True):
                 self.columns[int(j)] = col
         return np.array([self.columns[int(j)] for j in J])
+
+
+def nonzero_solve(lu: tuple, F: np.ndarray) -> np.ndarray:
+    """``lu_solve(lu, F)``, solving only the non-zero columns of F (a zero column solves to
+    zero): with a decoupled compliance the columns ``A0^{-1} e_j`` of tangential rows j have
+    no normal part, and those of normal rows none of the sticking block's if no pair slips."""
+    if F.ndim == 1:
+        return lu_solve(lu, F, check_finite=False)
+    nz = np.flatnonzero(np.any(F != 0, axis=0))
+    if nz.size == F.shape[1]:
+        return lu_solve(lu, F, check_finite=False)
+    out = np.zeros_like(F)
+    if nz.size:
+        out[:, nz] = lu_solve(lu, F[:, nz], check_finite=False)
+    return out
 
 
 def factor_reference(prob: InterfaceProblem, sets: Sets) -> Reference:
@@ -563,9 +757,8 @@ class ActiveSetSolver:
         cap, u = None, None
         if J.size:
             u = update(ref, prob, sets, J, kinds[J])
-            cap = checked_lu(
-                u.S[: u.m, : u.m],
-                f"singular active-set system ({np.count_nonzero(sets.status)} active pairs)",
+            cap = capacitance_solver(
+                u, f"singular active-set system ({np.count_nonzero(sets.status)} active pairs)"
             )
 
         part = None if cap is None else u.dense_part()  # one gather for both solves
@@ -574,7 +767,7 @@ class ActiveSetSolver:
             if cap is None:
                 return x0
             m = u.m
-            t = lu_solve(cap, u.times(x0, part) - r[u.idx[:m]], check_finite=False)
+            t = cap(u.times(x0, part) - r[u.idx[:m]])
             return x0 - u.Wt[:m].T @ t
 
         x = apply(y, b)

@@ -259,3 +259,156 @@ def test_compliance_product_by_halves_equals_the_full_product():
         full = (prob.C @ lam)[rows_]
         halves = compliance_product(prob.C, lam, rows_, prob.split)
         assert np.allclose(halves, full, rtol=1e-13, atol=1e-15 * np.abs(full).max())
+
+
+def zone_sets(n: int, lo: int, hi: int, slip: int = 0, sign: float = 1.0):
+    """Sets with pairs lo..hi-1 in contact, the first ``slip`` of them slipping."""
+    status = np.full(n, OPEN, np.int8)
+    status[lo:hi] = STICK
+    status[lo : lo + slip] = SLIP
+    return make_sets(status, np.full(n, sign))
+
+
+#: Walks of sets from a reference (stick on pairs 10..29 of 40): J only gains rows (the zone
+#: grows), only loses rows (it shrinks back), or gains, loses and changes the kind of rows
+#: (slip zones of both signs at a moving edge).
+WALKS = {
+    "adds": [(10, 31, 0, 1), (9, 31, 0, 1), (8, 32, 0, 1), (7, 33, 0, 1)],
+    "drops": [(4, 36, 0, 1), (5, 35, 0, 1), (6, 34, 0, 1), (6, 33, 0, 1)],
+    "mixed": [(8, 32, 3, 1), (8, 31, 4, 1), (7, 31, 4, -1), (9, 33, 2, -1), (8, 32, 3, 1)],
+}
+
+
+@pytest.mark.parametrize("coupling", [0.0, 0.2])
+@pytest.mark.parametrize("walk", sorted(WALKS))
+def test_bordered_capacitance_solves_equal_dense_solves(walk, coupling, monkeypatch):
+    """After the first system of a walk the capacitance S = A[J] W is solved by a bordered
+    solve with the first system's LU (rows of J added, dropped, changed in kind, and all
+    three), as the dense solve does, and the full system's solution equals the dense one."""
+    from fem import activeset
+    from fem.activeset import capacitance_solver, update
+
+    monkeypatch.setattr(activeset, "BORDER_FRACTION", 1.0)
+    monkeypatch.setattr(activeset, "BORDER_MIN_RANK", 0)
+    monkeypatch.setattr(activeset, "REFACTOR_FRACTION", 1.0)
+    n = 40
+    prob = problem(n, lock_theta=False, coupling=coupling)
+    N = 2 * n + prob.n_plate
+    ref = factor_reference(prob, zone_sets(n, 10, 30))
+    rng = np.random.default_rng(11)
+    for step, (lo, hi, slip, sgn) in enumerate(WALKS[walk]):
+        sets = zone_sets(n, lo, hi, slip, sgn)
+        kinds = sets.kinds(prob.n_plate)
+        J = np.flatnonzero(ref.kinds != kinds)
+        u = update(ref, prob, sets, J, kinds[J])
+        solve = capacitance_solver(u, "singular")
+        assert (u.factored, u.bordered) == (1, step)
+        S = rows(prob, sets, u.idx[: u.m]) @ u.Wt[: u.m].T
+        g = rng.normal(size=u.m)
+        t = solve(g)
+        assert np.allclose(t, np.linalg.solve(S, g), rtol=0, atol=1e-12 * np.abs(t).max())
+        assert u.factored == 1  # the backward error check passed
+    solver = ActiveSetSolver(prob)
+    for lo, hi, slip, sgn in [(10, 30, 0, 1), *WALKS[walk]]:
+        sets = zone_sets(n, lo, hi, slip, sgn)
+        b = rhs(prob, sets, SimpleNamespace(lam=rng.normal(size=2 * n), d=rng.normal(size=2 * n),
+                                            z=rng.normal(size=3)),
+                Load(P=1.0, Q=0.1, M=0.05), rng.normal(size=n))
+        x, _ = solver.solve(sets, lambda s, b=b: b)
+        assert np.allclose(x, np.linalg.solve(rows(prob, sets, np.arange(N)), b), rtol=1e-9,
+                           atol=1e-10 * np.abs(x).max())
+    assert solver.factorisations == 1
+    assert solver.pool[0].work.bordered == len(WALKS[walk]) - 1
+
+
+def test_bordered_capacitance_limits_and_falls_back_to_a_fresh_lu(monkeypatch):
+    """A |J| below BORDER_MIN_RANK, a border beyond BORDER_FRACTION of |J|, or a bordered
+    solve whose backward error exceeds BORDER_BACKWARD_ERROR: S is factorised afresh (the
+    new base)."""
+    from fem import activeset
+    from fem.activeset import capacitance_solver, update
+
+    n = 40
+    prob = problem(n, lock_theta=True)
+    ref = factor_reference(prob, zone_sets(n, 10, 30))
+
+    def step(lo, hi):
+        sets = zone_sets(n, lo, hi)
+        kinds = sets.kinds(prob.n_plate)
+        J = np.flatnonzero(ref.kinds != kinds)
+        u = update(ref, prob, sets, J, kinds[J])
+        S = rows(prob, sets, u.idx[: u.m]) @ u.Wt[: u.m].T
+        g = np.ones(u.m)
+        t = capacitance_solver(u, "singular")(g)
+        assert np.allclose(t, np.linalg.solve(S, g), rtol=0, atol=1e-12 * np.abs(t).max())
+        return u
+
+    monkeypatch.setattr(activeset, "BORDER_FRACTION", 0.2)
+    u = step(6, 34)  # |J| = 16 rows (8 pairs)
+    u = step(6, 33)  # 2 rows leave, but |J| = 14 < BORDER_MIN_RANK
+    assert (u.factored, u.bordered) == (2, 0)
+    monkeypatch.setattr(activeset, "BORDER_MIN_RANK", 0)
+    u = step(6, 34)  # 2 rows enter: border 2 <= 0.2 * 16
+    assert (u.factored, u.bordered) == (2, 1)
+    u = step(9, 31)  # 10 rows leave: border 12 > 0.2 * 6
+    assert (u.factored, u.bordered) == (3, 1)
+    monkeypatch.setattr(activeset, "BORDER_FRACTION", 0.5)
+    monkeypatch.setattr(activeset, "BORDER_BACKWARD_ERROR", 0.0)
+    u = step(9, 32)  # 2 rows enter: a bordered solve, rejected
+    assert (u.factored, u.bordered) == (4, 2)
+
+
+@pytest.mark.parametrize("perturbation", [0.0, 1e-15])
+def test_singular_capacitance_is_factorised_afresh_and_raises_not_converged(perturbation,
+                                                                          monkeypatch):
+    """Where a bordered solve would apply, an S that is singular to working precision (a row
+    that repeats another one, up to a relative ``perturbation``) is factorised afresh
+    (:data:`SCHUR_PIVOT`), and an exactly singular one raises NotConverged from its LU, as
+    without bordered solves."""
+    from fem import activeset
+    from fem.activeset import NotConverged, capacitance_solver, update
+
+    monkeypatch.setattr(activeset, "BORDER_FRACTION", 1.0)
+    monkeypatch.setattr(activeset, "BORDER_MIN_RANK", 0)
+    n = 20
+    prob = problem(n, lock_theta=False)
+    ref = factor_reference(prob, zone_sets(n, 6, 14))
+    for lo in (7, 8):
+        sets = zone_sets(n, lo, 14)
+        kinds = sets.kinds(prob.n_plate)
+        J = np.flatnonzero(ref.kinds != kinds)
+        u = update(ref, prob, sets, J, kinds[J])
+        if lo == 7:
+            capacitance_solver(u, "singular")(np.ones(u.m))
+            continue
+        assert activeset.bordered(u.base, u, "singular") is not None
+        new = np.flatnonzero(u.idx[: u.m] % n == 7)[0]
+        same = u.S[np.flatnonzero(u.idx[: u.m] % n == 6)[0], : u.m]
+        u.S[new, : u.m] = same * (1.0 + perturbation * np.linspace(-1.0, 1.0, u.m))
+        assert activeset.bordered(u.base, u, "singular") is None
+        if perturbation:
+            capacitance_solver(u, "singular")(np.ones(u.m))
+        else:
+            with pytest.raises(NotConverged, match="singular"):
+                capacitance_solver(u, "singular")(np.ones(u.m))
+    assert (u.factored, u.bordered) == (1 + bool(perturbation), 0)
+
+
+@pytest.mark.parametrize("coupling", [0.0, 0.2])
+def test_reference_solves_of_unit_and_zero_columns_equal_dense_solves(coupling):
+    """The columns ``A0^{-1} e_j`` of tangential, normal, open and plate rows and zero
+    columns (a block's solve skips the columns of its right-hand side that are zero)."""
+    n = 40
+    prob = problem(n, lock_theta=False, coupling=coupling)
+    N = 2 * n + prob.n_plate
+    sets = zone_sets(n, 8, 32, slip=5, sign=-1.0)
+    ref = factor_reference(prob, sets)
+    cols = np.array([3, 9, 20, n + 9, n + 20, n + 35, 2 * n, 2 * n + 2])
+    B = np.zeros((N, cols.size + 2))
+    B[cols, np.arange(cols.size)] = 1.0
+    X = ref.solve(prob, B)
+    A = rows(prob, sets, np.arange(N))
+    assert np.allclose(X, np.linalg.solve(A, B), rtol=0, atol=1e-12 * np.abs(X).max())
+    assert np.all(X[:, cols.size :] == 0.0)
+    if coupling == 0.0:  # the tangential columns have no normal part
+        assert np.all(X[n : 2 * n, :3] == 0.0)
