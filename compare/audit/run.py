@@ -207,7 +207,12 @@ def _result(case: AuditCase, found: list[checks.Finding], solve_times: tuple[flo
 
 
 # ------------------------------------------------------------------------------- many cases
-def _limit_memory() -> None:
+def _init_worker() -> None:
+    """A worker runs under WORKER_MEMORY and leaves Ctrl-C to the audit's main process, which
+    cancels the cases not started and waits for the running ones: a worker interrupted itself
+    died with a traceback, or in the middle of sending a result, which left the pool's
+    shutdown waiting for the rest of that message (a hang; seen under load)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     resource.setrlimit(resource.RLIMIT_AS, (WORKER_MEMORY, WORKER_MEMORY))
 
 
@@ -219,7 +224,7 @@ def run_audit(seeds: list[int], jobs: int = 1, n_bem: int = checks.BEM_N,
     the caller keeps what ``report`` received."""
     out = []
     with ProcessPoolExecutor(max_workers=jobs, mp_context=forkserver_context(),
-                             initializer=_limit_memory) as pool:
+                             initializer=_init_worker) as pool:
         futures = [pool.submit(audit_seed, seed, n_bem) for seed in seeds]
         try:
             for future in futures:
