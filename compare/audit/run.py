@@ -29,7 +29,7 @@ import numpy as np
 
 import analytic
 from compare import bem
-from compare._forkserver import forkserver_context
+from compare._forkserver import forkserver_context, ignore_interrupts
 from compare.audit import checks
 from compare.audit.cases import AuditCase, make_case
 from compare.fileio import write_atomic
@@ -209,10 +209,9 @@ def _result(case: AuditCase, found: list[checks.Finding], solve_times: tuple[flo
 # ------------------------------------------------------------------------------- many cases
 def _init_worker() -> None:
     """A worker runs under WORKER_MEMORY and leaves Ctrl-C to the audit's main process, which
-    cancels the cases not started and waits for the running ones: a worker interrupted itself
-    died with a traceback, or in the middle of sending a result, which left the pool's
-    shutdown waiting for the rest of that message (a hang; seen under load)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    cancels the cases not started and waits for the running ones
+    (:func:`compare._forkserver.ignore_interrupts`)."""
+    ignore_interrupts()
     resource.setrlimit(resource.RLIMIT_AS, (WORKER_MEMORY, WORKER_MEMORY))
 
 

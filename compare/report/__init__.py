@@ -29,7 +29,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from compare._forkserver import forkserver_context
+from compare._forkserver import forkserver_context, ignore_interrupts, kill_pool
 from compare.cases import Case, case_from_dict, load_case
 from compare.convergence import ConvergenceStudy, convergence
 from compare.errors import CaseError
@@ -220,10 +220,15 @@ def _run_units(units: list[tuple], workers: int):
     if workers <= 1 or len(units) <= 1:
         yield from (fn(*args) for fn, *args in units)
         return
-    with ProcessPoolExecutor(max_workers=workers, mp_context=forkserver_context()) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=forkserver_context(),
+                             initializer=ignore_interrupts) as pool:
         futures = [pool.submit(fn, *args) for fn, *args in units]
-        for f in futures:
-            yield f.result()
+        try:
+            for f in futures:
+                yield f.result()
+        except BaseException:  # Ctrl-C, or the caller stopped: the results are not wanted
+            kill_pool(pool)
+            raise
 
 
 def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, progress: Progress,

@@ -22,7 +22,7 @@ from concurrent.futures import wait as futures_wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from compare._forkserver import forkserver_context
+from compare._forkserver import forkserver_context, ignore_interrupts, kill_pool
 from compare.errors import SweepError
 from compare.sweep.tasks import execute, infrastructure_failure
 
@@ -109,7 +109,7 @@ def watch_coordinator(identity: tuple[int, str]) -> None:
 def _init_worker(coordinator: tuple[int, str]) -> None:
     """Pool workers leave Ctrl-C to the coordinator (which stops them and keeps the records)
     and end themselves when the coordinator dies."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    ignore_interrupts()
     watch_coordinator(coordinator)
 
 
@@ -117,17 +117,6 @@ def _pool(workers: int) -> ProcessPoolExecutor:
     return ProcessPoolExecutor(max_workers=workers, mp_context=forkserver_context(),
                                initializer=_init_worker,
                                initargs=(process_identity(os.getpid()),))
-
-
-def _kill_pool(pool: ProcessPoolExecutor) -> None:
-    """Stop a pool now: cancel queued work and terminate the worker processes we started."""
-    procs = list(getattr(pool, "_processes", {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for p in procs:
-        if p.is_alive():
-            p.terminate()
-    for p in procs:
-        p.join(timeout=5)
 
 
 def run_local(tasks: list[dict], workers: int, stop: StopFlag) -> Iterator[dict]:
@@ -160,7 +149,7 @@ def run_local(tasks: list[dict], workers: int, stop: StopFlag) -> Iterator[dict]
                 else:
                     queue.appendleft(t)
         finally:
-            _kill_pool(pool)
+            kill_pool(pool)
 
 
 def _dask():
