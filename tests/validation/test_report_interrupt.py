@@ -4,6 +4,7 @@ discarded) and writes nothing (compare._forkserver)."""
 
 from __future__ import annotations
 
+import functools
 import os
 import signal
 import subprocess
@@ -12,6 +13,10 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+
+#: Run in the child before exec: Ctrl-C's default action, as from a terminal (a shell's
+#: background job, e.g. a CI runner's, inherits SIGINT ignored, and Python keeps it ignored).
+DEFAULT_SIGINT = functools.partial(signal.signal, signal.SIGINT, signal.SIG_DFL)
 #: Seconds after the report's banner before the interrupt (its worker units then run).
 RUNNING_S = 4.0
 #: Bound on the interrupted report's exit: the workers are stopped, not waited for (a
@@ -24,7 +29,7 @@ def test_interrupted_report_stops_its_workers_and_writes_nothing(tmp_path):
     env = os.environ | {"PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen([sys.executable, "-m", "compare.cli", "report", "-o", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=DEFAULT_SIGINT)
     try:
         banner = proc.stderr.readline()  # the banner, printed before the units start
         time.sleep(RUNNING_S)

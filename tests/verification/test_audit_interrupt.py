@@ -3,6 +3,7 @@ group) writes the table of the finished cases, exits 130 and leaks no semaphores
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import signal
@@ -12,6 +13,10 @@ import threading
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+
+#: Run in the child before exec: Ctrl-C's default action, as from a terminal (a shell's
+#: background job, e.g. a CI runner's, inherits SIGINT ignored, and Python keeps it ignored).
+DEFAULT_SIGINT = functools.partial(signal.signal, signal.SIGINT, signal.SIG_DFL)
 #: Bound on waiting for the second finished case, and then for the interrupted audit to exit
 #: (a case solves in well under a second; the workers' interpreter start-up dominates).
 WAIT_S = 120
@@ -32,7 +37,7 @@ def test_interrupt_writes_partial_table(tmp_path):
     proc = subprocess.Popen([sys.executable, str(ROOT / "benchmarks" / "audit.py"), "--n", "400",
                              "--out", str(out)], stderr=subprocess.PIPE,
                             stdout=subprocess.DEVNULL, text=True, env=env,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=DEFAULT_SIGINT)
     lines, second = [], threading.Event()
     reader = threading.Thread(target=read_lines, args=(proc.stderr, lines, second, "[2 of 400, "))
     reader.start()
