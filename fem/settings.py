@@ -56,8 +56,8 @@ SIZE_FACTOR = 8.0
 #: 2 (64k against 125k) and pay at level 3 (cattaneo, one run of benchmarks/bench_fem.py, main
 #: f17f9d3: 4.8x less history time, 3.7x less peak memory than the tensor level 3 at growth 1.2;
 #: 6.8x and 4.6x at growth 1.3, the coarsest that keeps the tensor's level-3 accuracy; since the
-#: tensor layout's body 2 is mirrored, fem.mesh.mirror_body, 3.8-5.3x and 3.3x at 1.3, mains
-#: b198c8f and 863e142, README).
+#: tensor layout's body 2 is mirrored, fem.mesh.mirror_body, 3.8-5.3x over six runs and 3.3x at
+#: 1.3, mains b198c8f and 863e142, README).
 LAYOUTS = ("rings", "tensor")
 DEFAULT_LAYOUT = "tensor"
 #: Default growth. The rings grow by ``1 + (growth - 1) 2**(-(level + 1) / 2)`` per layer
