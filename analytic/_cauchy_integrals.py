@@ -177,18 +177,22 @@ def _refined(rule: Rule, upsampled: tuple, w: np.ndarray, jp: np.ndarray, up: np
 def _upsampled_suffices(up: np.ndarray) -> np.ndarray:
     """True where the pole ``up`` (panel units) lies outside the RHO_NEAR ellipse of every
     sub-panel of the upsampled rule."""
+    c, h = _quarters()
+    return np.all(_bernstein((up[:, None] - c[None, :]) / h) >= RHO_NEAR, axis=1)
+
+
+def _quarters() -> tuple[np.ndarray, float]:
+    """Centres and half-width of the UPSAMPLE equal sub-panels of [-1, 1]."""
     edges = np.linspace(-1.0, 1.0, UPSAMPLE + 1)
-    c, h = 0.5 * (edges[:-1] + edges[1:]), 0.5 * (edges[1:] - edges[:-1])
-    return np.all(_bernstein((up[:, None] - c[None, :]) / h[None, :]) >= RHO_NEAR, axis=1)
+    return 0.5 * (edges[:-1] + edges[1:]), 1.0 / UPSAMPLE
 
 
 def upsample(rule: Rule) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(s, wt, G)`` of every block on UPSAMPLE equal sub-panels of PANEL_NODES Gauss nodes,
     shapes (n_blocks, M) and (n_blocks, M, 2), G from the block's Legendre coefficients."""
     u, wq, _ = legendre(PANEL_NODES)
-    edges = np.linspace(-1.0, 1.0, UPSAMPLE + 1)
-    c, h = 0.5 * (edges[:-1] + edges[1:]), 0.5 * (edges[1:] - edges[:-1])
-    uu, ww = (c[:, None] + h[:, None] * u).ravel(), (h[:, None] * wq).ravel()
+    c, h = _quarters()
+    uu, ww = (c[:, None] + h * u).ravel(), np.tile(h * wq, UPSAMPLE)
     th = 0.5 * (rule.tb - rule.ta)
     t = 0.5 * (rule.ta + rule.tb)[:, None] + th[:, None] * uu
     off, end = rule.position(np.arange(rule.ta.size)[:, None], t)
@@ -298,13 +302,6 @@ def _scatter(F: np.ndarray, it: np.ndarray, values: np.ndarray) -> None:
         F[:, c].imag += np.bincount(it, values[:, c].imag, minlength=F.shape[0])
 
 
-def _near_block(rule: Rule, j: int, w: np.ndarray) -> np.ndarray:
-    """Mask of the targets inside the disc that holds block j's RHO_NEAR ellipse (a superset
-    of the near targets: the others lie outside the ellipse)."""
-    c, r = _near_discs(rule)
-    return np.abs(w - c[j]) < r[j]
-
-
 def _add_far(F: np.ndarray, dF: np.ndarray, rule: Rule, blocks: np.ndarray, w: np.ndarray,
              sel: np.ndarray) -> None:
     """Add the plain Gauss sums of ``blocks`` for the targets ``sel``."""
@@ -316,15 +313,17 @@ def _add_far(F: np.ndarray, dF: np.ndarray, rule: Rule, blocks: np.ndarray, w: n
 
 
 def _sub_sums(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Plain Gauss sums, sub-interval by sub-interval: its one coarse block for the targets far
-    from it (a smooth sub-interval), its panels for the others.  Returns F, F' and the
-    (n_targets, n_sub) mask of the targets that took the panels."""
+    """Plain Gauss sums, sub-interval by sub-interval: its one coarse block for the targets
+    outside the disc that holds its RHO_NEAR ellipse (a smooth sub-interval), its panels for the
+    others.  Returns F, F' and the (n_targets, n_sub) mask of the targets that took the
+    panels."""
     F = np.zeros((w.size, 2), complex)
     dF = np.zeros_like(F)
     panels_used = np.ones((w.size, quad.smooth.size), bool)
+    c, r = _near_discs(quad.coarse)  # the disc holding each coarse block's RHO_NEAR ellipse
     for k in range(quad.smooth.size):
         if quad.smooth[k]:
-            panels_used[:, k] = _near_block(quad.coarse, k, w)
+            panels_used[:, k] = np.abs(w - c[k]) < r[k]
         near = panels_used[:, k]
         _add_far(F, dF, quad.panels, np.flatnonzero(quad.panels.parent == k), w,
                  np.flatnonzero(near))
