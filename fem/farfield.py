@@ -145,7 +145,7 @@ def coupling_loads(disc, free: np.ndarray, G: np.ndarray) -> np.ndarray:
     for K, lo, hi, fixed, g in ((disc.stiffness[0], 0, n1, disc.fixed[0], G[:k1]),
                                 (disc.stiffness[1], n1, disc.n_dofs, disc.fixed[1], G[k1:])):
         local = free[(free >= lo) & (free < hi)] - lo
-        parts.append(K[local][:, fixed] @ g)
+        parts.append((K[:, fixed] @ g)[local])  # K[local] would copy the body's stiffness
     return np.concatenate(parts)
 
 

@@ -198,18 +198,43 @@ def gap_at(h0: Callable, x: np.ndarray) -> np.ndarray:
 
 
 def add_far_field(C: np.ndarray, Cf: np.ndarray) -> np.ndarray:
-    """``C + Cf`` (the bulk compliance and the far-field lift's).  If the bulk's
-    tangential-normal blocks are zero (the bodies are mirror images, ``fem.condense``: a
-    tangential pair force moves the pairs apart by no normal displacement), the lift's are zero
-    by the same symmetry, up to its rounding (cattaneo, three_cylinders, applied_moment: 1.5e-14
-    to 4.9e-13 of max |C|), and are left out: the sum stays decoupled (``fem.activeset``
-    factorises the normal and tangential blocks apart)."""
-    if not uncoupled(C):
-        return C + Cf
-    n = C.shape[0] // 2
-    Cf[:n, n:] = 0.0
-    Cf[n:, :n] = 0.0
-    return C + Cf
+    """``C + Cf`` (the bulk compliance and the far-field lift's), summed into C (C is
+    overwritten and returned: a third dense 2n x 2n array at the peak of the history would cost
+    0.2 GB at cattaneo ring level 5, issue 28).  If the bulk's tangential-normal blocks are zero
+    (the bodies are mirror images, ``fem.condense``: a tangential pair force moves the pairs
+    apart by no normal displacement), the lift's are zero by the same symmetry, up to its
+    rounding (cattaneo, three_cylinders, applied_moment: 1.5e-14 to 4.9e-13 of max |C|), and
+    are left out: the sum stays decoupled (``fem.activeset`` factorises the normal and
+    tangential blocks apart)."""
+    if uncoupled(C):
+        n = C.shape[0] // 2
+        Cf[:n, n:] = 0.0
+        Cf[n:, :n] = 0.0
+    C = row_major_in_place(C)  # the layout C + Cf had: the contact solver's rounding follows it
+    return np.add(C, Cf, out=C)
+
+
+#: Rows (and columns) per block of :func:`row_major_in_place`'s swaps.
+TRANSPOSE_BLOCK = 512
+
+
+def row_major_in_place(A: np.ndarray) -> np.ndarray:
+    """A square A as a C-ordered array in A's own memory (A itself if it is C-ordered; a
+    Fortran-ordered A's buffer transposed block by block in place: the compliance of
+    ``fem.condense`` is Fortran-ordered, and a copy would cost a third dense matrix)."""
+    if A.flags.c_contiguous or not A.flags.f_contiguous or A.shape[0] != A.shape[1]:
+        return np.ascontiguousarray(A)
+    B = A.T  # C-ordered view of the buffer: B[j, i] = A[i, j]; transposed in place, B = A
+    m = B.shape[0]
+    for r0 in range(0, m, TRANSPOSE_BLOCK):
+        r1 = min(r0 + TRANSPOSE_BLOCK, m)
+        B[r0:r1, r0:r1] = B[r0:r1, r0:r1].T.copy()
+        for c0 in range(r1, m, TRANSPOSE_BLOCK):
+            c1 = min(c0 + TRANSPOSE_BLOCK, m)
+            upper = B[r0:r1, c0:c1].copy()
+            B[r0:r1, c0:c1] = B[c0:c1, r0:r1].T
+            B[c0:c1, r0:r1] = upper.T
+    return B
 
 
 def build_model(
@@ -244,8 +269,7 @@ def build_model(
         far = None
         if disc.boundary == "half-plane":
             far = lift(disc, factor, free, x[cand])
-            lifted = far.fields[free]
-            C = add_far_field(C, (lifted[f1] - lifted[f2]) @ far.R)
+            C = add_far_field(C, (far.fields[free[f1]] - far.fields[free[f2]]) @ far.R)
     prob = InterfaceProblem(
         C=C,
         x=x[cand],

@@ -82,9 +82,39 @@ def test_far_field_term_keeps_a_decoupled_compliance_decoupled():
     n = 5
     C = np.diag(rng.uniform(1.0, 2.0, 2 * n))
     Cf = rng.normal(size=(2 * n, 2 * n))
-    out = add_far_field(C, Cf.copy())
+    into = C.copy()
+    out = add_far_field(into, Cf.copy())
+    assert out is into  # summed in place: no third dense matrix at the history's peak
     assert not np.any(out[:n, n:]) and not np.any(out[n:, :n])
     assert np.array_equal(out[:n, :n], C[:n, :n] + Cf[:n, :n])
     assert np.array_equal(out[n:, n:], C[n:, n:] + Cf[n:, n:])
     C[0, n] = C[n, 0] = 0.1
-    assert np.array_equal(add_far_field(C, Cf.copy()), C + Cf)
+    assert np.array_equal(add_far_field(C.copy(), Cf.copy()), C + Cf)
+
+
+@pytest.mark.parametrize("m", [1, 7, 10, 12])
+def test_row_major_in_place_keeps_the_values_in_the_same_memory(monkeypatch, m):
+    """A Fortran-ordered square matrix becomes C-ordered in its own buffer (blocks of 3: full,
+    partial and diagonal blocks), value for value; a C-ordered one is returned as it is."""
+    import fem.history as history
+
+    monkeypatch.setattr(history, "TRANSPOSE_BLOCK", 3)
+    A = np.asfortranarray(np.random.default_rng(m).normal(size=(m, m)))
+    want = A.copy()
+    B = history.row_major_in_place(A)
+    assert B.flags.c_contiguous and np.shares_memory(A, B)
+    assert np.array_equal(B, want)
+    assert history.row_major_in_place(B) is B
+
+
+def test_far_field_sum_of_a_fortran_compliance_is_row_major():
+    """fem.condense's compliance is Fortran-ordered: the sum has the layout ``C + Cf`` had (the
+    contact solver's rounding follows the layout), in C's memory."""
+    from fem.history import add_far_field
+
+    rng = np.random.default_rng(2)
+    C = np.asfortranarray(rng.normal(size=(8, 8)))
+    Cf = rng.normal(size=(8, 8))
+    want = C + Cf
+    out = add_far_field(C.copy(order="F"), Cf.copy())
+    assert out.flags.c_contiguous and np.array_equal(out, want)

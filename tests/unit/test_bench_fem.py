@@ -1,0 +1,40 @@
+"""benchmarks/bench_fem.py's verdict lines: which ring run is compared with the tensor mesh and
+the ratios it prints (issue 28 targets), from rows of known numbers."""
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+import bench_fem  # noqa: E402
+
+
+def row(layout, level, history, peak, fe_peak, base, edge, stick, dofs, growth=1.2):
+    return dict(layout=layout, level=level, history=history, peak=peak, fe_peak=fe_peak,
+                fe_memory=fe_peak - base, base=base, edge=edge, stick=stick, dofs=dofs,
+                growth=growth)
+
+
+def test_the_cheapest_ring_run_as_accurate_as_the_finest_tensor_run_sets_the_ratios():
+    rows = [row("tensor", 2, 1.0, 300.0, 290.0, 90.0, 2e-4, 2e-4, 1e5),
+            row("tensor", 3, 5.0, 860.0, 810.0, 90.0, 7e-5, 9e-5, 6e5),
+            row("rings", 3, 0.5, 200.0, 190.0, 90.0, 8e-5, 1e-5, 5e4, 1.4),  # edge misses
+            row("rings", 3, 2.0, 300.0, 290.0, 90.0, 1e-5, 1e-5, 2e5),
+            row("rings", 3, 1.0, 260.0, 250.0, 90.0, 3e-5, 2e-5, 1e5, 1.3)]
+    text = bench_fem.tensor_ratio_text(rows)
+    assert "growth 1.3" in text and "5.0x less history time" in text
+    assert "3.3x less peak memory" in text and "3.2x in the FE history alone" in text
+    assert "4.5x in the FE's own growth above the process's 90 MB" in text
+    assert "6.0x fewer DOFs" in text
+
+
+def test_no_ring_run_at_the_tensor_accuracy_is_said():
+    rows = [row("tensor", 3, 5.0, 860.0, 810.0, 90.0, 7e-5, 9e-5, 6e5),
+            row("rings", 3, 0.5, 200.0, 190.0, 90.0, 8e-5, 1e-5, 5e4)]
+    assert bench_fem.tensor_ratio_text(rows) == "no ring run reaches tensor level 3's accuracy"
+
+
+def test_growth_exponent_of_a_power_law():
+    n = [100.0, 200.0, 400.0, 800.0]
+    assert bench_fem.exponent(n, [3.0 * v**1.5 for v in n]) == pytest.approx(1.5, rel=1e-12)
