@@ -14,19 +14,21 @@
    contact width, beside a reference row measured with Kratos (wall seconds, below).  Then
    least-squares exponents of every phase's time and of the memory growth against n (levels
    >= FIT_FROM), the local exponents of the history time, the cheapest ring run that reaches
-   the tensor mesh's finest accuracy with its time and memory ratios, and the cheapest ring run
-   at level-4 accuracy against the tensor level 4 of issue 28.  The ring ladder runs at the
-   case's growth; ``--scan-growths`` adds ring runs at the finest tensor level with other
-   growths (the accuracy / cost study behind the level-3 ratios: a coarser grading that still
-   reaches the tensor's accuracy is the cheaper mesh for it), marked in the 'g' column and
-   left out of the exponents.
+   the tensor mesh's finest accuracy with its time and memory ratios (then the same two runs
+   repeated alternately, ``--ratio-pairs``, with the medians and ranges of the ratios), and the
+   cheapest ring run at level-4 accuracy against the tensor level 4 of issue 28.  The ring
+   ladder runs at the case's growth; ``--scan-growths`` adds ring runs at the finest tensor
+   level with other growths (the accuracy / cost study behind the level-3 ratios: a coarser
+   grading that still reaches the tensor's accuracy is the cheaper mesh for it), marked in the
+   'g' column and left out of the exponents.
 2. Cost on the default mesh (issue 4): Hertz and double wedge, DOFs, assembly time, one plain
    factorisation + solve (reference), the whole three-stage history (>= 40 increments) and the
    ratio history / (factorisation + solve).  Targets: ratio <= 5, whole default Hertz history
    <= 20 s on 2 cores.
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_fem.py [--levels 0 1 2 3 4 5 6]
-         [--tensor-levels 0 1 2 3] [--scan-growths 1.3 1.4] [--max-gb 8] [--no-cost]
+         [--tensor-levels 0 1 2 3] [--scan-growths 1.3 1.4] [--ratio-pairs 3] [--max-gb 8]
+         [--no-cost]
 (tensor level 4 needs ~14 GB: do not run it on a shared machine).
 Timings on a shared machine are noisy: compare ratios within one run.
 """
@@ -214,6 +216,9 @@ HEAD = (f"{'mesh':<7}{'lvl':>4}{'g':>7}{'a/h':>6}{'DOFs':>9}{'n':>6}{'mesh s':>8
 #: tensor level 3's accuracy with fewer DOFs there, while the default stays for levels 0-2 (the
 #: measurements are beside fem.settings.GROWTH).
 SCAN_GROWTHS = (1.3, 1.4)
+#: Alternating repeats of the ratio's two runs (the ring run's history is about a second at
+#: level 3, and its ratio scattered between 3.8x and 5.3x over single runs, README).
+RATIO_PAIRS = 3
 #: Levels from which the growth exponents are fitted (issue 28: history time from level 1 on).
 FIT_FROM = 1
 #: Phases whose growth exponent in n is printed.
@@ -256,7 +261,8 @@ def growth_text(layout: str, rows: list[dict]) -> str:
 
 
 def accuracy_table(levels: list[int], tensor_levels: list[int], max_gb: float,
-                   growth: float | None = None, scan: tuple[float, ...] = ()) -> None:
+                   growth: float | None = None, scan: tuple[float, ...] = (),
+                   pairs: int = RATIO_PAIRS) -> None:
     runs = ([(lv, "rings", growth, False) for lv in levels]
             + [(lv, "tensor", None, False) for lv in tensor_levels]
             + [(max(tensor_levels), "rings", g, True) for g in scan if tensor_levels])
@@ -282,6 +288,9 @@ def accuracy_table(levels: list[int], tensor_levels: list[int], max_gb: float,
     for layout in ("rings", "tensor"):
         print(growth_text(layout, done))
     print(target_text(done))
+    ref, best = ratio_pair(done)
+    if best is not None and pairs > 0:
+        print(repeated_ratio_text(repeated_ratios(ref, best, pairs, max_gb)))
 
 
 def target_text(rows: list[dict]) -> str:
@@ -291,16 +300,24 @@ def target_text(rows: list[dict]) -> str:
     return "\n".join((tensor_ratio_text(rows), level4_text(rows)))
 
 
-def tensor_ratio_text(rows: list[dict]) -> str:
+def ratio_pair(rows: list[dict]) -> tuple[dict | None, dict | None]:
+    """(finest tensor run, cheapest ring run at least as accurate in edge and stick); None for
+    what is missing."""
     tensor = [r for r in rows if r["layout"] == "tensor"]
     if not tensor:
-        return "no tensor run: no ratios"
+        return None, None
     ref = max(tensor, key=lambda r: r["level"])
     good = [r for r in rows if r["layout"] == "rings" and r["edge"] <= ref["edge"]
             and r["stick"] <= ref["stick"]]
-    if not good:
+    return ref, min(good, key=lambda r: r["history"]) if good else None
+
+
+def tensor_ratio_text(rows: list[dict]) -> str:
+    ref, best = ratio_pair(rows)
+    if ref is None:
+        return "no tensor run: no ratios"
+    if best is None:
         return f"no ring run reaches tensor level {ref['level']}'s accuracy"
-    best = min(good, key=lambda r: r["history"])
     return (f"tensor level {ref['level']} accuracy (edge {100 * ref['edge']:.4f} %, stick "
             f"{100 * ref['stick']:.4f} %) at ring level {best['level']}, growth "
             f"{best['growth']:g}: "
@@ -310,6 +327,30 @@ def tensor_ratio_text(rows: list[dict]) -> str:
             f"{ref['fe_memory'] / best['fe_memory']:.1f}x in the FE's own growth above the "
             f"process's {best['base']:.0f} MB of interpreter, libraries and analytic solution), "
             f"{ref['dofs'] / best['dofs']:.1f}x fewer DOFs")
+
+
+def repeated_ratios(ref: dict, best: dict, pairs: int, max_gb: float) -> list[tuple]:
+    """(history ratio, peak ratio, FE-growth ratio) of ``pairs`` alternating fresh runs of the
+    ring run ``best`` and the tensor run ``ref``."""
+    out = []
+    for _ in range(pairs):
+        ring = run_level(best["level"], "rings", max_gb, best["growth"])
+        tensor = run_level(ref["level"], "tensor", max_gb)
+        if "failed" in ring or "failed" in tensor:
+            continue
+        out.append((tensor["history"] / ring["history"], tensor["peak"] / ring["peak"],
+                    tensor["fe_memory"] / ring["fe_memory"]))
+    return out
+
+
+def repeated_ratio_text(ratios: list[tuple]) -> str:
+    """Medians and ranges of :func:`repeated_ratios`."""
+    if not ratios:
+        return "no repeated pair ran"
+    cols = np.array(ratios)
+    parts = [f"{name} {np.median(c):.1f}x ({c.min():.1f}-{c.max():.1f}x)" for name, c in
+             zip(("history time", "peak memory", "FE's own memory"), cols.T, strict=True)]
+    return f"{len(ratios)} alternating pairs, median (range): " + ", ".join(parts)
 
 
 #: Tensor level 4 as measured in issue 28 (main 53e2816, CHOLMOD, one BLAS thread): history
@@ -364,10 +405,12 @@ def main() -> None:
                     help="growth of the ring meshes (default: the case's)")
     ap.add_argument("--scan-growths", type=float, nargs="*", default=list(SCAN_GROWTHS),
                     help="ring runs at the finest tensor level with these growths")
+    ap.add_argument("--ratio-pairs", type=int, default=RATIO_PAIRS,
+                    help="alternating repeats of the tensor-accuracy ratio's two runs")
     ap.add_argument("--no-cost", action="store_true", help="skip the default-mesh cost table")
     args = ap.parse_args()
     accuracy_table(args.levels, args.tensor_levels, args.max_gb, args.growth,
-                   tuple(args.scan_growths))
+                   tuple(args.scan_growths), args.ratio_pairs)
     if not args.no_cost:
         print()
         cost_table()

@@ -38,3 +38,16 @@ def test_no_ring_run_at_the_tensor_accuracy_is_said():
 def test_growth_exponent_of_a_power_law():
     n = [100.0, 200.0, 400.0, 800.0]
     assert bench_fem.exponent(n, [3.0 * v**1.5 for v in n]) == pytest.approx(1.5, rel=1e-12)
+
+
+def test_repeated_ratios_give_medians_and_ranges():
+    text = bench_fem.repeated_ratio_text([(4.0, 3.2, 4.4), (5.5, 3.4, 4.6), (4.5, 3.3, 4.5)])
+    assert text == ("3 alternating pairs, median (range): history time 4.5x (4.0-5.5x), "
+                    "peak memory 3.3x (3.2-3.4x), FE's own memory 4.5x (4.4-4.6x)")
+    assert bench_fem.repeated_ratio_text([]) == "no repeated pair ran"
+
+
+def test_the_ratio_pair_is_missing_without_a_tensor_run_or_an_accurate_ring_run():
+    assert bench_fem.ratio_pair([row("rings", 3, 1.0, 1, 1, 0, 1e-5, 1e-5, 1)]) == (None, None)
+    ref = row("tensor", 3, 5.0, 860.0, 810.0, 90.0, 7e-5, 9e-5, 6e5)
+    assert bench_fem.ratio_pair([ref, row("rings", 3, 1, 1, 1, 0, 1e-4, 1e-5, 1)]) == (ref, None)
