@@ -21,7 +21,7 @@ from analytic.errors import InputError as AnalyticInputError
 from analytic.profiles import Profile
 from compare.errors import CaseError
 from compare.tolerances import DEFAULTS as DEFAULT_TOLERANCES
-from fem.settings import DEFAULT_LAYOUT, GROWTH, LAYOUTS
+from fem.settings import DEFAULT_LAYOUT, GROWTH, INCOMPATIBLE_MODES, LAYOUTS
 
 REQUIRED = object()  # marker: key without a default
 
@@ -73,7 +73,8 @@ class FemSettings:
     product mesh); edge_nodes: put a mesh node
     on every analytic contact edge of the full normal load (the phase-locked refinement of
     ``converge --phase-locked``: the edge error then no longer swings with where the edge falls
-    between nodes).
+    between nodes); incompatible: Q1 elements with incompatible modes (fem.MeshSpec.incompatible;
+    no effect on Q2).
     """
 
     level: int = 1
@@ -88,6 +89,7 @@ class FemSettings:
     growth: float = GROWTH
     layout: str = DEFAULT_LAYOUT
     edge_nodes: bool = False
+    incompatible: bool = INCOMPATIBLE_MODES
 
 
 #: The ``[fem]`` keys and their defaults (the type of a value follows its default).

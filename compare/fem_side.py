@@ -80,10 +80,11 @@ def mesh(case: Case, boundary: str | None = None):
     ('half-plane' or 'clamped'; None: fem's default)."""
     bc = {} if boundary is None else {"boundary": boundary}
     if case.fem.mesh_file:
-        return fem.MeshFile(Path(case.fem.mesh_file), order=case.fem.order, **bc)
+        return fem.MeshFile(Path(case.fem.mesh_file), order=case.fem.order,
+                            incompatible=case.fem.incompatible, **bc)
     return fem.MeshSpec(level=case.fem.level, order=case.fem.order,
                         size_factor=case.fem.size_factor, growth=case.fem.growth,
-                        layout=case.fem.layout, **bc)
+                        layout=case.fem.layout, incompatible=case.fem.incompatible, **bc)
 
 
 def contact(case: Case) -> fem.ContactSettings:

@@ -75,7 +75,9 @@ def check_settings(h0, mesh, contact, increments, kinks, window, vtk_dir, backen
         raise refuse("h0", h0, "a vectorised callable h0(x) >= 0 (np.inf where no contact)")
     if isinstance(mesh, MeshSpec):
         check_mesh_spec(mesh)
-    elif not (mesh is None or isinstance(mesh, (MeshFile, str, Path))):
+    if isinstance(mesh, (MeshSpec, MeshFile)) and not isinstance(mesh.incompatible, bool):
+        raise refuse("incompatible", mesh.incompatible, "True or False")
+    if not (mesh is None or isinstance(mesh, (MeshSpec, MeshFile, str, Path))):
         raise refuse("mesh", mesh, "None, a MeshSpec, a MeshFile or a mesh file path")
     if contact is not None:
         check_contact(contact)

@@ -107,7 +107,8 @@ class Discretisation:
     history's model and result (``fem.history.build_model`` drops them once factorised).
     fixed: prescribed dofs of body 1 (top, or the whole outer boundary with
     boundary='half-plane') and body 2 (bottom, or its whole outer boundary).
-    E, nu: material; order: element order.
+    E, nu: material; order: element order; incompatible: Q1 elements carry incompatible modes
+    (:func:`mode_gradients`; no effect on Q2).
     """
 
     mesh: TwoBodyMesh
@@ -120,6 +121,7 @@ class Discretisation:
     fixed: tuple
     interface: Interface
     boundary: str = "clamped"
+    incompatible: bool = False
 
     @property
     def n_dofs(self) -> int:
@@ -143,12 +145,15 @@ def stiffness(mesh: MeshQuad, order: int, E: float, nu: float) -> tuple[Basis, s
 ELEMENT_BLOCK = 20000
 
 
-def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
+def elasticity_matrix(scalar: Basis, E: float, nu: float, incompatible: bool = False
+                      ) -> sp.csr_matrix:
     """Plane-strain stiffness in the vector numbering ``2 * scalar dof + component``, from the
     scalar basis gradients in one vectorised kernel (the bilinear form of
     :func:`plane_strain_elasticity`, ``sigma(u) : eps(v)``, without its per-entry Python
     loop): with ``D_ab^kl = int d_k phi_a d_l phi_b``,
-    ``K[(a, i), (b, j)] = lam D_ab^ij + mu D_ab^ji + mu delta_ij (D_ab^00 + D_ab^11)``."""
+    ``K[(a, i), (b, j)] = lam D_ab^ij + mu D_ab^ji + mu delta_ij (D_ab^00 + D_ab^11)``.
+    ``incompatible``: Q1 elements with the incompatible modes of :func:`mode_matrices`,
+    condensed element by element (:func:`condensed`)."""
     lam, mu = lame_parameters(E, nu)
     grads = np.array([phi[0].grad for phi in scalar.basis])  # (n_loc, 2, n_el, n_qp)
     dofs = scalar.element_dofs  # (n_loc, n_el)
@@ -169,6 +174,8 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
         Ke = (
             lam * D + mu * D.transpose(0, 1, 2, 4, 3) + mu * trace[..., None, None] * eye
         )  # (e, a, b, i, j)
+        if incompatible:
+            Ke = condensed(Ke, *mode_matrices(scalar, sl, lam, mu, g))
         vec = 2 * dofs[:, sl].T[:, :, None] + np.arange(2)  # (e, a, i)
         out = slice(sl.start * per_el, sl.stop * per_el)
         data[out] = Ke.ravel()
@@ -177,6 +184,74 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float) -> sp.csr_matrix:
         del D, trace, Ke, vec
     del grads
     return compact(sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr())
+
+
+def pair_stiffness(lam: float, mu: float, ga: np.ndarray, gb: np.ndarray, wt: np.ndarray
+                   ) -> np.ndarray:
+    """``K[e, A, B, i, j] = int sigma(f_A e_i) : eps(f_B e_j) wt`` of two sets of scalar
+    functions given by their gradients ``ga`` (nA, 2, e, q), ``gb`` (nB, 2, e, q) at the
+    quadrature points with weights ``wt`` (e, q): the formula of :func:`elasticity_matrix`."""
+    D = np.einsum("akeq,bleq,eq->eabkl", ga, gb, wt, optimize=True)
+    trace = D[..., 0, 0] + D[..., 1, 1]
+    return lam * D + mu * D.transpose(0, 1, 2, 4, 3) + mu * trace[..., None, None] * np.eye(2)
+
+
+def mode_gradients(scalar: Basis, sl: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Incompatible modes of the Q1 elements ``sl`` (Wilson-Taylor, in Simo-Rifai's enhanced
+    strain form, as Abaqus's CPE4I): ``b_m = X_m (1 - X_m)`` on the reference square [0, 1]^2,
+    m = 0, 1, with the gradient mapped by the element's Jacobian J0 at its centre and scaled by
+    ``det J0 / det J`` (Taylor's correction: ``int grad b_m dx = 0`` on every quadrilateral, so
+    the element passes the patch test, and is exact in pure bending of a rectangle).  Returns
+    (G, w_ci, w_ii): G (2, 2, e, q) the modes' J0-mapped gradients, and the quadrature weights
+    of the (standard, mode) and (mode, mode) products, ``det J0 W`` and ``det J0^2 / det J W``
+    (e, q)."""
+    X, W = scalar.X, scalar.W
+    J0 = scalar.mapping.DF(np.full((2, 1), 0.5), tind=np.arange(scalar.nelems)[sl])[..., 0]
+    det0 = J0[0, 0] * J0[1, 1] - J0[0, 1] * J0[1, 0]  # (e,)
+    inv0 = np.array([[J0[1, 1], -J0[0, 1]], [-J0[1, 0], J0[0, 0]]]) / det0  # dX_m / dx_k
+    G = inv0[:, :, :, None] * (1.0 - 2.0 * X)[:, None, None, :]  # (m, k, e, q)
+    w_ci = det0[:, None] * W
+    return G, w_ci, w_ci * det0[:, None] * W / scalar.dx[sl]
+
+
+def mode_matrices(scalar: Basis, sl: slice, lam: float, mu: float, grads: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(K_ci (e, 8, 4), K_ii (e, 4, 4)) of the incompatible modes (:func:`mode_gradients`) of
+    the elements ``sl``, rows and columns ``2 a + i`` (standard) and ``2 m + i`` (modes);
+    ``grads``: the standard gradients (4, 2, e, q) of those elements."""
+    G, w_ci, w_ii = mode_gradients(scalar, sl)
+    n = grads.shape[2]
+    Kci = pair_stiffness(lam, mu, grads, G, w_ci).transpose(0, 1, 3, 2, 4).reshape(n, 8, 4)
+    Kii = pair_stiffness(lam, mu, G, G, w_ii).transpose(0, 1, 3, 2, 4).reshape(n, 4, 4)
+    return Kci, Kii
+
+
+def condensed(Ke: np.ndarray, Kci: np.ndarray, Kii: np.ndarray) -> np.ndarray:
+    """``K_cc - K_ci K_ii^-1 K_ic`` per element (the incompatible modes condensed out; no
+    displacement dof is added), ``Ke`` (e, a, b, i, j) in and out, symmetrised."""
+    n, n_loc = Ke.shape[0], Ke.shape[1]
+    Kcc = Ke.transpose(0, 1, 3, 2, 4).reshape(n, 2 * n_loc, 2 * n_loc)
+    K = Kcc - Kci @ np.linalg.solve(Kii, Kci.transpose(0, 2, 1))
+    K = 0.5 * (K + K.transpose(0, 2, 1))
+    return K.reshape(n, n_loc, 2, n_loc, 2).transpose(0, 1, 3, 2, 4)
+
+
+def mode_recovery(scalar: Basis, E: float, nu: float) -> tuple[np.ndarray, np.ndarray]:
+    """(T, G): the incompatible modes' amplitudes ``alpha = T u_e`` (T = -K_ii^-1 K_ic, (e, 4,
+    8), the condensed equations of the element) and their strain gradients G (2, 2, e, q)
+    already scaled by ``det J0 / det J``: the strain of mode (m, i) at a quadrature point is
+    ``sym(G_m e_i) alpha_(m, i)``."""
+    lam, mu = lame_parameters(E, nu)
+    grads = np.array([phi[0].grad for phi in scalar.basis])
+    n_el = grads.shape[2]
+    T, G = np.empty((n_el, 4, 8)), np.empty((2, 2, n_el, grads.shape[3]))
+    for e0 in range(0, n_el, ELEMENT_BLOCK):
+        sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
+        Kci, Kii = mode_matrices(scalar, sl, lam, mu, grads[:, :, sl])
+        T[sl] = -np.linalg.solve(Kii, Kci.transpose(0, 2, 1))
+        Gb, w_ci, _ = mode_gradients(scalar, sl)
+        G[:, :, sl] = Gb * (w_ci / scalar.dx[sl])
+    return T, G
 
 
 def compact(A: sp.csr_matrix) -> sp.csr_matrix:
@@ -229,14 +304,17 @@ def outer_facets(mesh: MeshQuad) -> np.ndarray:
 
 
 def discretise(
-    mesh: TwoBodyMesh, order: int, E: float, nu: float, boundary: str = "clamped"
+    mesh: TwoBodyMesh, order: int, E: float, nu: float, boundary: str = "clamped",
+    incompatible: bool = False,
 ) -> Discretisation:
     """Assemble both bodies and pair their interface dofs.
 
     boundary: 'clamped' (body 1's top and body 2's bottom fixed, the sides free) or
     'half-plane' (every boundary dof off y = 0 fixed; fem.farfield prescribes it).
+    incompatible: Q1 elements with incompatible modes (:func:`mode_gradients`; order 1 only).
     """
-    parts = [assemble_body(mesh, body, order, E, nu, boundary) for body in (0, 1)]
+    incompatible = bool(incompatible and order == 1)
+    parts = [assemble_body(mesh, body, order, E, nu, boundary, incompatible) for body in (0, 1)]
     (b1, K1, (x1, w1, d1), fixed1), (b2, K2, (x2, w2, d2), fixed2) = parts
     iface = Interface(x=0.5 * (x1 + x2), w=0.5 * (w1 + w2), dof1=d1, dof2=d2)
     return Discretisation(
@@ -250,11 +328,12 @@ def discretise(
         fixed=(fixed1, fixed2),
         interface=iface,
         boundary=boundary,
+        incompatible=incompatible,
     )
 
 
 def assemble_body(mesh: TwoBodyMesh, body: int, order: int, E: float, nu: float,
-                  boundary: str) -> tuple:
+                  boundary: str, incompatible: bool = False) -> tuple:
     """One body of :func:`discretise`: its vector dofs, stiffness, interface side ``(x, w,
     dofs)`` and fixed dofs, from a scalar basis of its own that goes on return with the mesh's
     cached mapping (the bodies one after the other: one basis's quadrature data at a time,
@@ -262,7 +341,7 @@ def assemble_body(mesh: TwoBodyMesh, body: int, order: int, E: float, nu: float,
     m = mesh.bodies[body]
     scalar = Basis(m, ELEMENTS[order]())
     vec = vector_dofs(scalar)
-    K = elasticity_matrix(scalar, E, nu)
+    K = elasticity_matrix(scalar, E, nu, incompatible)
     side = interface_side(m, mesh.nodes[("contact_upper", "contact_lower")[body]], order, scalar)
     if boundary == "half-plane":
         fixed = vector_facet_dofs(scalar, vec, outer_facets(m))

@@ -16,7 +16,7 @@ from collections.abc import Iterator, Sequence
 import numpy as np
 from scipy.sparse import csr_matrix
 
-from .bulk import compact, mass_matrix, vector_dofs
+from .bulk import compact, mass_matrix, mode_recovery, vector_dofs
 from .condense import RECOVERY_BLOCK, column_blocks, pair_loads
 from .linsolve import factorize
 
@@ -126,7 +126,9 @@ class FieldRecovery:
             # one at a time (issue 28: level 5's peak; no zip, whose result tuple would hold
             # the last one while the next is built), the largest (eps_xy) first: its
             # temporaries then sit beside the load operator alone
-            for B in iter_strain_operators(scalar, XY_FIRST):
+            modes = (mode_recovery(scalar, self.disc.E, self.disc.nu)
+                     if self.disc.incompatible and self.disc.order == 1 else None)
+            for B in iter_strain_operators(scalar, XY_FIRST, modes):
                 ops.append((load @ B).tocsr())
                 del B
             del load
@@ -156,7 +158,7 @@ def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
     return tuple(iter_strain_operators(scalar))
 
 
-def iter_strain_operators(scalar, components: Sequence[int] = (0, 1, 2)
+def iter_strain_operators(scalar, components: Sequence[int] = (0, 1, 2), modes=None
                           ) -> Iterator[csr_matrix]:
     """Sparse ``(Bxx, Byy, Bxy)`` with ``B @ u`` the strains ``eps_xx, eps_yy, eps_xy`` of the
     vector dof vector u (numbering :class:`fem.bulk.VectorDofs`) at the quadrature points of
@@ -167,7 +169,13 @@ def iter_strain_operators(scalar, components: Sequence[int] = (0, 1, 2)
     of ``eps_cc`` holds only the component-c dofs: no structural zeros, no stacked copy of the
     gradients, 32-bit indices where they fit), so that a caller need not hold all three and
     the temporaries are of one operator's size (issue 28); ``components``: which of them (0, 1,
-    2: xx, yy, xy) in which order."""
+    2: xx, yy, xy) in which order.  ``modes``: the incompatible modes' ``(T, G)`` of
+    :func:`fem.bulk.mode_recovery` (Q1 elements with incompatible modes): their strain joins
+    every operator, ``sum_(m, i) sym(G_m e_i) (T u_e)_(m, i)``, and every row then holds all
+    the element's dofs."""
+    if modes is not None:
+        yield from mode_strain_operators(scalar, components, modes)
+        return
     n_el, n_qp = scalar.dx.shape
     vec = vector_dofs(scalar)
     n_loc = vec.element_dofs.shape[0]
@@ -192,6 +200,31 @@ def iter_strain_operators(scalar, components: Sequence[int] = (0, 1, 2)
             B = compact(B)
         yield B
         del B
+
+
+def mode_strain_operators(scalar, components: Sequence[int], modes) -> Iterator[csr_matrix]:
+    """:func:`iter_strain_operators` of Q1 elements with incompatible modes ``(T, G)``: row
+    ``(e, k)`` holds the element's 8 vector dofs ``2 a + c`` in that order."""
+    T, G = modes
+    n_el, n_qp = scalar.dx.shape
+    vec = vector_dofs(scalar)
+    itype = np.int32 if vec.N < np.iinfo(np.int32).max else np.int64
+    dofs = np.asarray(vec.element_dofs, dtype=itype).T  # (n_el, 8)
+    grad = [np.asarray(phi[0].grad) for phi in scalar.basis]
+    indptr = np.arange(0, n_el * n_qp * 8 + 1, 8, dtype=itype)
+    for parts in (STRAIN_PARTS[c] for c in components):
+        g = np.zeros((n_el, n_qp, 8))
+        modal = np.zeros((n_el, n_qp, 4))  # the strain of mode (m, i) at column 2 m + i
+        for c, d, f in parts:
+            for a in range(4):
+                g[..., 2 * a + c] += f * grad[a][d]
+            for m in range(2):
+                modal[..., 2 * m + c] += f * G[m, d]
+        g += np.einsum("eqk,ekj->eqj", modal, T)
+        del modal
+        indices = np.ascontiguousarray(np.broadcast_to(dofs[:, None, :], g.shape)).ravel()
+        yield csr_matrix((g.ravel(), indices, indptr), shape=(n_el * n_qp, vec.N))
+        del g, indices
 
 
 def load_operator(scalar) -> csr_matrix:

@@ -40,6 +40,7 @@ from .linsolve import Factor
 from .mesh import TwoBodyMesh, as_windows, build_mesh, read_mesh
 from .results import FemInterface, FemStep, runs, zones_with_uncertainty
 from .settings import (
+    INCOMPATIBLE_MODES,
     ContactSettings,
     LoadPath,
     MeshFile,
@@ -148,7 +149,8 @@ class Model:
 
 
 def resolve_mesh(mesh, window, kinks) -> tuple[TwoBodyMesh, int, str]:
-    """Build or read the two-body mesh; return it, the element order and the boundary."""
+    """Build or read the two-body mesh; return it, the element order and the boundary (the
+    spec's other element setting, ``incompatible``, :func:`assemble_bodies` reads)."""
     if mesh is None:
         mesh = MeshSpec()
     if isinstance(mesh, (str, Path)):
@@ -385,8 +387,9 @@ def assemble_bodies(
     the discretisation (timed as 'mesh' and 'assembly')."""
     with timed(timings, "mesh"):
         tbm, order, boundary = resolve_mesh(mesh, window, kinks)
+    incompatible = getattr(mesh, "incompatible", INCOMPATIBLE_MODES)  # a path: the default
     with timed(timings, "assembly"):
-        disc = discretise(tbm, order, E, nu, boundary)
+        disc = discretise(tbm, order, E, nu, boundary, incompatible)
     return tbm, order, disc
 
 

@@ -108,9 +108,11 @@ def fe_text(res, bold: str = "**", sep: str = ", ", esc=str) -> str:
     end = bold.replace("<", "</") if bold.startswith("<") else bold
     name = esc(fe.backend)
     if is_own_fe(res.source):
+        element = ELEMENTS.get(fe.order, f"order {fe.order}")
+        if fe.order == 1 and res.case.fem.incompatible:
+            element += " with incompatible modes"
         return sep.join((f"Backend {bold}{name}{end}", f"{fe.n_dofs} DOFs",
-                         f"{ELEMENTS.get(fe.order, f'order {fe.order}')}, level "
-                         f"{res.case.fem.level}"))
+                         f"{element}, level {res.case.fem.level}"))
     dofs = f"{fe.n_dofs} DOFs" if fe.n_dofs > 0 else "DOFs not given"
     order = f"element order {fe.order}" if fe.order > 0 else "element order not given"
     return sep.join((f"Code {bold}{name}{end}", dofs, order))

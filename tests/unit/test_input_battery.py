@@ -147,7 +147,7 @@ SETTINGS: list[tuple[str, Callable, type, dict]] = [
     ("MeshSpec", lambda **k: _fem(mesh=fem.MeshSpec(**k)), fem.InputError,
      {"level": [7, -4, 1.5, NAN], "order": [3, 0, None], "W": [0.0, INF], "H": [-1.0],
       "n_window": [1, NAN], "growth": [1.0, 3.0, NAN], "margin": [-0.1, NAN],
-      "size_factor": [1.0, INF], "layout": ["ring", None, 1]}),
+      "size_factor": [1.0, INF], "layout": ["ring", None, 1], "incompatible": ["yes", None, 1]}),
     ("ContactSettings", lambda **k: _fem(contact=fem.ContactSettings(**k)), fem.InputError,
      {"k_n": [0.0, NAN], "k_t": [-1.0], "penalty_factor": [0.0, INF, None],
       "augmented": [None, "yes"], "pen_tol": [0.0, NAN], "max_uzawa": [0, 2.5],
@@ -159,7 +159,7 @@ SETTINGS: list[tuple[str, Callable, type, dict]] = [
      {"level": [7, 1.5, None], "order": [3], "penalty_factor": [0.0, NAN],
       "augmented": [1, None], "n_normal": [0], "n_tangential": [NAN], "size_factor": [1.0],
       "window_margin": [2.0, INF], "growth": [1.0, None], "mesh_file": [None, 3],
-      "layout": ["ring", None], "edge_nodes": [1, None]}),
+      "layout": ["ring", None], "edge_nodes": [1, None], "incompatible": [1, "yes", None]}),
 ]
 
 

@@ -71,3 +71,20 @@ def test_stored_hertz_mesh_history_matches_generated(histories):
         zones_a, zones_b = np.array(a.contact_zones), np.array(b.contact_zones)
         assert zones_a.shape == zones_b.shape
         assert np.max(np.abs(zones_a - zones_b)) < HISTORY_TOL * A_HERTZ
+
+
+def test_stored_mesh_with_incompatible_modes_gives_the_generated_history():
+    """fem.MeshFile(incompatible=True) carries the element setting to the assembly as
+    MeshSpec does: the same history from the file and from the generator, not plain Q1's."""
+    path = MESHES / "hertz_L0.msh"
+    kw = dict(window=(-1.3 * A_HERTZ, 1.3 * A_HERTZ), increments=fem.LoadPath(n_normal=3,
+                                                                              n_tangential=2))
+    gap = lambda x: x**2 / (2 * R)  # noqa: E731
+    file, generated, plain = (
+        fem.solve_history(gap, P, 0.5 * MU * P, MU, E, NU, mesh=m, **kw)
+        for m in (fem.MeshFile(path, incompatible=True),
+                  fem.MeshSpec(level=0, layout="rings", incompatible=True), fem.MeshFile(path)))
+    for a, b in zip(file.steps, generated.steps, strict=True):
+        assert np.abs(a.interface.p - b.interface.p).max() < HISTORY_TOL * P0_HERTZ
+    ends = [h.steps[-1].contact_zones[0][1] for h in (file, plain)]
+    assert abs(ends[0] - ends[1]) > 1e-4 * A_HERTZ, ends  # the modes ran (measured 1.0e-3 a)
