@@ -1,5 +1,6 @@
-"""Why the graded ring mesh is not the default (issue 28, item 1): the Hertz edge error split into
-the contact's own discretisation error and the stiffening error of the grading.
+"""Why the graded ring mesh is the default with incompatible modes (issue 28, item 1): the Hertz
+edge error split into the contact's own discretisation error and the stiffening error of the
+grading, for Q1 elements with incompatible modes (the default) and plain Q1.
 
 The library case ``hertz`` at each level, the FE contact edge of the full normal load against
 the analytic edge, *signed* (left edge, FE minus analytic, relative to the contact width: > 0
@@ -12,15 +13,16 @@ the FE zone is narrower, i.e. the FE bodies are stiffer), in two refinements:
   error of either sign adds to it).
 
 Meshes: ``rings`` (fem.rings at the default growth, its rate falling with the level), ``tensor``
-(the default layout, growth refined with the level as ``converge`` does,
-compare.convergence.refined_growth) and ``rings-fine`` (rings at growth FINE_GROWTH: the
-grading error negligible, so the ``locked`` column is the contact error alone).  The grading
-error of a mesh is its ``locked`` value minus the ``rings-fine`` one of the same level.
+(growth refined with the level as ``converge`` does, compare.convergence.refined_growth) and
+``rings-fine`` (rings at growth FINE_GROWTH: the grading error negligible, so the ``locked``
+column is the contact error alone), each with the modes and, suffixed ``-q1``, with plain Q1
+(``tensor-q1``: the default before issue 28).  The grading error of a mesh is its ``locked``
+value minus the ``rings-fine`` one of the same element and level.
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/grading_study.py [--levels -1 0 1 2]
          [--fine-levels -1 0 1]
 (``rings-fine`` at level 1 has ~290k DOFs; at level 2 it does not fit a shared machine.)
-The measured table is beside fem.settings.DEFAULT_LAYOUT.
+The measured table is beside fem.settings.DEFAULT_LAYOUT and INCOMPATIBLE_MODES.
 """
 
 from __future__ import annotations
@@ -38,15 +40,24 @@ from compare.run import normal_metrics
 #: locked Hertz edge moves by 3.9e-5 of the width from growth 1.05 to 1.02 at level 0, against a
 #: contact error of 6.5e-4 there).
 FINE_GROWTH = 1.02
-MESHES = ("rings", "tensor", "rings-fine")
+#: The meshes in the order they run (the fine references first).
+MESHES = ("rings-fine", "rings", "tensor", "rings-fine-q1", "rings-q1", "tensor-q1")
 
 
 def fem_settings(case, mesh: str, level: int) -> dict:
     """The [fem] changes of one mesh of the study at ``level``."""
-    if mesh == "rings-fine":
-        return dict(layout="rings", growth=FINE_GROWTH, level=level)
-    base = case.with_fem(layout=mesh)
-    return dict(layout=mesh, growth=refined_growth(base, level), level=level)
+    incompatible = not mesh.endswith("-q1")
+    layout = mesh.removesuffix("-q1").removesuffix("-fine")
+    if mesh.removesuffix("-q1").endswith("-fine"):
+        return dict(layout=layout, growth=FINE_GROWTH, level=level, incompatible=incompatible)
+    base = case.with_fem(layout=layout)
+    return dict(layout=layout, growth=refined_growth(base, level), level=level,
+                incompatible=incompatible)
+
+
+def fine_of(mesh: str) -> str:
+    """The fine reference of a mesh's element."""
+    return "rings-fine-q1" if mesh.endswith("-q1") else "rings-fine"
 
 
 def edge_row(case, an, mesh: str, level: int, locked: bool) -> dict:
@@ -67,17 +78,18 @@ def main() -> None:
     args = ap.parse_args()
     case = load_case("hertz")
     an = solve_case(case)
-    print(f"{'mesh':>10} {'level':>5} {'DOFs':>8} {'locked':>10} {'free':>10} {'grading':>10}")
+    print(f"{'mesh':>14} {'level':>5} {'DOFs':>8} {'locked':>10} {'free':>10} {'grading':>10}")
     fine = {}
-    for mesh in ("rings-fine", "rings", "tensor"):
-        levels = args.fine_levels if mesh == "rings-fine" else args.levels
+    for mesh in MESHES:
+        levels = args.fine_levels if "-fine" in mesh else args.levels
         for level in levels:
             locked = edge_row(case, an, mesh, level, True)
             free = edge_row(case, an, mesh, level, False)
-            if mesh == "rings-fine":
-                fine[level] = locked["edge"]
-            grading = locked["edge"] - fine[level] if level in fine else float("nan")
-            print(f"{mesh:>10} {level:>5} {free['dofs']:>8} {locked['edge']:>+10.2e} "
+            if "-fine" in mesh:
+                fine[mesh, level] = locked["edge"]
+            ref = fine.get((fine_of(mesh), level))
+            grading = float("nan") if ref is None else locked["edge"] - ref
+            print(f"{mesh:>14} {level:>5} {free['dofs']:>8} {locked['edge']:>+10.2e} "
                   f"{free['edge']:>+10.2e} {grading:>+10.2e}", flush=True)
 
 

@@ -69,12 +69,11 @@ class FemSettings:
     twice as many) added to the sample points; size_factor: body half-width / window
     half-width; window_margin: the refined window is the analytic contact span widened by
     this fraction of the span on each side; growth: element size ratio away from the window
-    (fem.MeshSpec.growth); layout: 'rings' (graded rings) or 'tensor' (the default: the tensor
-    product mesh); edge_nodes: put a mesh node
-    on every analytic contact edge of the full normal load (the phase-locked refinement of
-    ``converge --phase-locked``: the edge error then no longer swings with where the edge falls
-    between nodes); incompatible: Q1 elements with incompatible modes (fem.MeshSpec.incompatible;
-    no effect on Q2).
+    (fem.MeshSpec.growth); layout: 'rings' (graded rings, the default) or 'tensor' (the tensor
+    product mesh); edge_nodes: put a mesh node on every analytic contact edge of the full
+    normal load (the phase-locked refinement of ``converge --phase-locked``: the edge error then
+    no longer swings with where the edge falls between nodes); incompatible: Q1 elements with
+    incompatible modes (fem.MeshSpec.incompatible, the default; no effect on Q2).
     """
 
     level: int = 1

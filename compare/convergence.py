@@ -27,14 +27,17 @@ smooth-edge case is non-monotone.  ``phase_locked=True`` (``converge --phase-loc
 mesh node on every analytic contact edge of the full normal load at every level
 (``fem.edge_nodes``, as the slow Hertz order test does), which measures the order itself; the
 study says which one ran (``phase_locked``, in its verdict line and summary).  Even locked, the
-edge error is the sum of terms of opposite sign: on the ring mesh (growth 1.2, Hertz) the
-discretisation widens the zone (order ~2: -1.6e-4, -3.4e-5, -7e-6 of the width at levels 1-3)
-and the rings' grading narrows it (order 1, as (rate - 1)**2 with fem.mesh.near_growth: 1.5e-4,
-6.9e-5, 3.5e-5; a quarter with growth 1.1: from the difference of the runs at growth 1.2 and
-1.1, 1.1e-4, 5.2e-5, 2.6e-5, scaled by (rate - 1)**2; it predicted level 4 within 10 %), so
-the error falls, crosses zero and rises before it falls at order 1 (3.3e-4, 1.3e-5, 3.5e-5,
-2.8e-5, 1.45e-5, 7.4e-6 at levels 0-5; local orders 0.93, 0.97 from level 3): a crossing,
-not a floor.  The study prints the signed edge
+edge error is the sum of terms of opposite sign: on the ring mesh of plain Q1 (growth 1.2,
+Hertz) the discretisation widens the zone (order ~2: -1.6e-4, -3.4e-5, -7e-6 of the width at
+levels 1-3) and the rings' grading narrows it (order 1, as (rate - 1)**2 with
+fem.mesh.near_growth: 1.5e-4, 6.9e-5, 3.5e-5; a quarter with growth 1.1: from the difference of
+the runs at growth 1.2 and 1.1, 1.1e-4, 5.2e-5, 2.6e-5, scaled by (rate - 1)**2; it predicted
+level 4 within 10 %), so the error falls, crosses zero and rises before it falls at order 1
+(3.3e-4, 1.3e-5, 3.5e-5, 2.8e-5, 1.45e-5, 7.4e-6 at levels 0-5; local orders 0.93, 0.97 from
+level 3): a crossing, not a floor.  The grading's part is plain Q1's stiffness: with the
+incompatible modes of the default elements it is 0.39x as large and the crossing moves to
+levels 3-4, below 2e-6 of the width (-2.77e-3, -7.13e-4, -2.02e-4, -5.56e-5, -1.99e-6,
+-1.49e-6 at levels -1 to 4; fem.settings.DEFAULT_LAYOUT).  The study prints the signed edge
 offset per run and names a sign change (:meth:`ConvergenceStudy.offset_crossings`).
 
 Honesty: besides the least-squares orders the study reports the local order and the ratio of

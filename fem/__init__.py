@@ -16,8 +16,8 @@ solve_history(h0, P0, Q0, mu, E, nu, *, M=None, mesh=None, contact=None,
     M: None = vertical indentation (rotation locked, M reported), else applied moment.
     mesh: MeshSpec(level=1, order=1|2, W=None, H=None, n_window=48, growth=1.2,
           margin=0.15, size_factor=8, boundary="half-plane"|"clamped",
-          layout="rings"|"tensor", incompatible=False) |
-          MeshFile(path, order=1, boundary=..., incompatible=False) | path (str/Path) of a
+          layout="rings"|"tensor", incompatible=True) |
+          MeshFile(path, order=1, boundary=..., incompatible=True) | path (str/Path) of a
           meshio file with line sets contact_upper, contact_lower, top, bottom.
           incompatible: Q1 elements with incompatible modes (condensed per element).
     contact: ContactSettings(k_n=None, k_t=None, penalty_factor=100, augmented=False,

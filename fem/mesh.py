@@ -201,8 +201,8 @@ def depth_axis(h: float, H: float, near: float, spec: MeshSpec) -> np.ndarray:
 def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
     """Generate the two-body mesh refined in one window (xmin, xmax) or in several
     ((xmin, xmax), ...), e.g. one per expected contact zone: graded rings (``layout="rings"``,
-    :mod:`fem.rings`) or the tensor product of an x and a depth axis (the default,
-    ``layout="tensor"``)."""
+    the default, :mod:`fem.rings`) or the tensor product of an x and a depth axis
+    (``layout="tensor"``)."""
     validate_mesh_spec(spec)
     windows = as_windows(window)
     span = windows[-1][1] - windows[0][0]
@@ -222,7 +222,8 @@ def build_mesh(spec: MeshSpec, window, kinks=()) -> TwoBodyMesh:
         x = inner_axis(windows, kinks, rate)
         p, t = ring_body(x, h, rate.growth, xc, W, H)
         p = snap_interface_kinks(p, t, outer_kinks(windows, kinks, rate))
-        upper = MeshQuad(p, t)
+        # row-major arrays, as skfem keeps them (it would copy them itself, with a warning)
+        upper = MeshQuad(np.ascontiguousarray(p), np.ascontiguousarray(t))
         return from_bodies(upper, mirror_body(upper), "generated")
     x = window_axis(windows, kinks, spec, W)
     depth = depth_axis(h, H, NEAR_DEPTH * max(b - a for a, b in windows), spec)

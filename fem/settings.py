@@ -26,43 +26,33 @@ N_WINDOW_LEVEL0 = 48
 #: of the DOFs for a truncation error that grows like (a / W)^3 (applied_moment pressure 2e-5 at 4;
 #: the tensor's level-3 moment width 0.0016 % at 6, 0.0077 % at 3): 8 for both layouts.
 SIZE_FACTOR = 8.0
-#: Mesh layouts (MeshSpec.layout): graded rings around the windows (fem.rings) or the tensor product
-#: of an x axis and a depth axis. The default stays 'tensor' (issue 28; Hertz, signed edge error of
-#: the width, > 0: the FE zone narrower; benchmarks/grading_study.py). The edge error is the sum of
-#: (a) the contact's own error, widening, O(h^2): -2.61e-3 / -6.53e-4 / -1.81e-4 at levels -1 / 0 /
-#: 1 (phase-locked, grading made negligible: rings at growth 1.02, 32k / 96k / 286k DOFs); (b) the
-#: grading's stiffening, narrowing: +6.1e-4 / +3.3e-4 / +1.7e-4 with the rings' rate 1.2 / 1.14 /
-#: 1.1 (order ~1 by design, GROWTH; at level 0 it falls like (g - 1)^1.5: +3.3e-4 / +1.2e-4 /
-#: +3.9e-5 at rates 1.14 / 1.07 / 1.035 with 11k / 22k / 44k DOFs); (c) an O(h) phase error of
-#: either sign (free minus phase-locked: +7e-4 / +1.0e-4 / +1.6e-4). (b) overtakes (a) between
-#: levels 0 and 1, so the free ring error changes sign there and falls only 1.5x (-2.27e-4 ->
-#: +1.47e-4, local order 0.63 < MIN_EDGE_ORDER of tests/verification/test_compare_convergence.py;
-#: cattaneo's stick error falls regularly on both: rings 7.5e-3 / 3.4e-3 / 7.3e-4 / 2.1e-4 at levels
-#: -1..2, tensor 7.2e-3 / 2.8e-3 / 5.8e-4 / 2.7e-4). None of the grading's knobs moves the crossing
-#: at less than the tensor mesh's level-1 cost (26.5k DOFs): the body size (4..16) changes (b) by <
-#: 1e-5, the fine margin (0.15 -> 0.5) by -5.3e-5, the transition trigger
-#: (fem.rings.TRANSITION_TRIGGER 3 / 9 instead of 4.5) by +1.4e-4 / -1.6e-5 at level 0 (-29 / +23 %
-#: DOFs); transitions at 3x with growth 1.15 / 1.1 give local orders 0.74 / 3.0 at levels 0 -> 1
-#: with 25.9k / 38.8k DOFs at level 1 and 0.64 / 0.35 at 1 -> 2. Keeping (b) below (a) at every
-#: level (rate 1 + 0.1 2^-(level+1) within a window half-span of the fine row, measured with a
-#: two-rate layer_plan not kept) converges at order 2 with one sign (phase-locked -2.44e-3 / -6.1e-4
-#: / -1.7e-4 / -4.1e-5 at levels -1..2) but costs 6.5k / 19.8k / 60k / 200k DOFs against the
-#: tensor's 1.9k / 6.3k / 26.5k / 125k. The tensor mesh crosses as well (phase-locked +1.0e-3 /
-#: +1.2e-4 / -4.3e-5 / -2.6e-5), but its converge schedule halves growth - 1 per level
-#: (refined_growth: 1.8 / 1.4 / 1.2 / 1.1), an order-2 stiffening (+3.6e-3 / +7.7e-4 / +1.4e-4) that
-#: dominates (a) at levels -1 / 0, and its level-1 phase error keeps the free error on one side
-#: (+1.89e-3 / +2.92e-4 / +1.11e-4 / +1.16e-5). At level 1 both layouts are equally efficient
-#: (tensor +1.4e-4 with 26.5k DOFs, rings +1.7e-4 with 25.0k); the rings have fewer DOFs from level
-#: 2 (64k against 125k) and pay at level 3 (cattaneo, one run of benchmarks/bench_fem.py, main
-#: f17f9d3: 4.8x less history time, 3.7x less peak memory than the tensor level 3 at growth 1.2;
-#: 6.8x and 4.6x at growth 1.3, the coarsest that keeps the tensor's level-3 accuracy; since the
-#: tensor layout's body 2 is mirrored, fem.mesh.mirror_body, 3.8-5.3x over six runs and 3.3x at
-#: 1.3, mains b198c8f and 863e142, README).  (b) is plain Q1's stiffness in the coarse ring
-#: elements: with incompatible modes it is 0.39x as large and the ring errors fall with one
-#: sign, at larger errors per DOF (INCOMPATIBLE_MODES: what keeps rings and modes from being the
-#: default).
+#: Mesh layouts (MeshSpec.layout): graded rings around the windows (fem.rings) or the tensor
+#: product of an x axis and a depth axis.  The default is 'rings' with incompatible modes
+#: (INCOMPATIBLE_MODES; issue 28).  Hertz, signed edge error of the width (> 0: the FE zone
+#: narrower; benchmarks/grading_study.py, tests/verification/test_ring_grading.py) is the sum of
+#: (a) the contact's own error, widening, O(h^2) (the nodal contact: rings at growth 1.02, plain
+#: Q1, phase-locked -2.61e-3 / -6.53e-4 / -1.81e-4 at levels -1 / 0 / 1; not the penalty: the
+#: augmented Lagrangian moves cattaneo's level-3 edge by < 7e-6); (b) the grading's narrowing,
+#: order ~1 by the rate (GROWTH): the stiffness of plain Q1 where the grading makes it coarse,
+#: +6.1e-4 / +3.3e-4 / +1.7e-4 at levels -1 / 0 / 1; (c) an O(h) phase error of either sign.  With
+#: plain Q1 (b) overtakes (a) between levels 0 and 1: the free ring error changes sign there and
+#: falls only 1.5x (-1.29e-3 / -2.27e-4 / +1.47e-4 at levels -1..1, local order 0.63 <
+#: MIN_EDGE_ORDER of tests/verification/test_compare_convergence.py), and none of the grading's
+#: knobs (body size 4-16, fine margin 0.15-0.5, fem.rings.TRANSITION_TRIGGER 3-9, transitions at
+#: 3x with rates 1.1-1.15) moved the crossing at less than the tensor's level-1 cost; a rate that
+#: keeps (b) below (a) at every level (1 + 0.1 2^-(level+1)) costs 6.5k / 19.8k / 60k / 200k DOFs
+#: at levels -1..2 against the tensor's 1.9k / 6.3k / 26.5k / 125k.  With the modes (b) is 0.39x as
+#: large (level 0) and overtakes (a) only between levels 3 and 4, below 2e-6 of the width:
+#: phase-locked -2.77e-3 / -7.13e-4 / -2.02e-4 / -5.56e-5 / -1.99e-6 / -1.49e-6 at levels -1..4,
+#: free -2.27e-3 / -9.18e-4 / -9.69e-5 at -1..1.  The tensor mesh of plain Q1 (the default before)
+#: crosses too (phase-locked +1.0e-3 / +1.2e-4 / -4.3e-5 / -2.6e-5 at levels -1..2); its free
+#: study stayed on one side by its level-1 phase error.  Cost: at the library's level 1 the rings
+#: with the modes give cattaneo edge / stick 9.7e-5 / 2.6e-4 of the width with 25.0k DOFs, the
+#: plain tensor 1.1e-4 / 5.8e-4 with 26.5k; from level 2 the rings need half the DOFs or fewer,
+#: and at level 3 the tensor's accuracy costs several times less time and memory (README,
+#: benchmarks/bench_fem.py).
 LAYOUTS = ("rings", "tensor")
-DEFAULT_LAYOUT = "tensor"
+DEFAULT_LAYOUT = "rings"
 #: Default growth. The rings grow by ``1 + (growth - 1) 2**(-(level + 1) / 2)`` per layer
 #: (fem.mesh.near_growth: 1.1 / 1.07 / 1.05 at levels 1 / 2 / 3, the grading error then falls
 #: with h).  Accuracy / DOF study on cattaneo (edge / stick error of the width; rings with a
@@ -79,26 +69,28 @@ DEFAULT_LAYOUT = "tensor"
 #: 402k; but at levels 0-2 1.2 is the more accurate per DOF (Hertz level 1 at 1.2 beats level 2
 #: at 1.3 in half-width and peak pressure with 0.64x the DOFs), and the library's tensor meshes
 #: share this default: 1.2 stays, and benchmarks/bench_fem.py --scan-growths measures the
-#: coarser rates at level 3 beside it (README).
+#: coarser rates at level 3 beside it (README).  These are plain Q1's numbers; with the
+#: incompatible modes (the default elements, INCOMPATIBLE_MODES) cattaneo at growth 1.15 / 1.2 /
+#: 1.3 / 1.4, edge / stick of the width: level 3 219k DOFs 3.8e-5 / 4.0e-5, 154k 3.1e-5 /
+#: 4.9e-5, 98k 1.45e-5 / 7.1e-5, 72k 7.4e-6 / 9.7e-5; level 1 35k 1.3e-4 / 2.2e-4, 25k 9.7e-5 /
+#: 2.6e-4, 17k 2.5e-5 / 3.7e-4, 13k 3.5e-5 / 4.7e-4: the grading narrows the zone less, and
+#: coarser rates shift the edge error onto the stick edge; 1.2 stays.
 GROWTH = 1.2
 #: Q1 elements with incompatible modes (MeshSpec.incompatible; fem.bulk.mode_gradients: the
-#: Wilson-Taylor modes in Simo-Rifai's form, as Abaqus's CPE4I; no DOFs added).  Plain Q1 is
-#: stiff where the grading makes it coarse, and that stiffness is the rings' narrowing of
-#: DEFAULT_LAYOUT's (b): Hertz level 0, phase-locked, the left edge moves by +2.9e-4 of the width
-#: from growth 1.05 to 1.2 with plain Q1, +1.1e-4 with the modes, +1.6e-6 with Q2.  With the
-#: modes the ring errors fall with one sign (Hertz, phase-locked, levels -1..2: -2.77e-3 /
-#: -7.13e-4 / -2.02e-4 / -5.56e-5, orders 1.96 / 1.82 / 1.86; free: -2.27e-3 / -9.18e-4 /
-#: -9.69e-5 at levels -1..1, plain Q1 -1.29e-3 / -2.27e-4 / +1.47e-4;
-#: tests/verification/test_ring_grading.py).  Not the default yet: with the cancellation gone
-#: the errors per DOF are larger (cattaneo rings at growth 1.2, levels 0 / 1 / 2 / 3 / 4, modes
-#: against plain Q1: edge 9.2e-4 / 9.7e-5 / 5.9e-5 / 3.1e-5 / 1.45e-5 against 2.3e-4 / 1.5e-4 /
-#: 8.7e-5 / 3.9e-6 / 2.8e-6, stick 3.7e-3 / 2.6e-4 / 1.5e-4 / 4.9e-5 / 1.8e-5 against 3.4e-3 /
-#: 7.3e-4 / 2.1e-4 / 3.1e-5 / 1.1e-5, pressure L2 3.2e-3 / 1.7e-3 / 1.05e-3 / 1.11e-3 /
-#: 4.6e-4 against 4.5e-3 / 2.6e-3 / 1.4e-3 / 6.6e-4 / 2.4e-4: the modes' pressure error does
-#: not fall from level 2 to 3, unexplained), and the library's tolerances were measured on
-#: plain Q1.  Level 3 with the modes still reaches the tensor level 3's accuracy (edge / stick
-#: 1.45e-5 / 7.1e-5 at growth 1.3, 98k DOFs) and level 4 the level-4 target (2e-5).
-INCOMPATIBLE_MODES = False
+#: Wilson-Taylor modes in Simo-Rifai's form, as Abaqus's CPE4I; condensed per element, no DOFs
+#: added, the stresses recovered with them).  Plain Q1 is stiff where the grading makes it coarse,
+#: and that stiffness is DEFAULT_LAYOUT's (b): Hertz level 0, phase-locked, the left edge moves by
+#: +2.9e-4 of the width from growth 1.05 to 1.2 with plain Q1, +1.1e-4 with the modes, +1.6e-6
+#: with Q2.  With the cancellation of (a) by (b) gone, the rings' edges are farther off at levels
+#: 3-4 than plain Q1's (cattaneo, growth 1.2, levels 0..4, modes against plain Q1: edge 9.2e-4 /
+#: 9.7e-5 / 5.9e-5 / 3.1e-5 / 1.45e-5 against 2.3e-4 / 1.5e-4 / 8.7e-5 / 3.9e-6 / 2.8e-6; stick
+#: 3.7e-3 / 2.6e-4 / 1.5e-4 / 4.9e-5 / 1.8e-5 against 3.4e-3 / 7.3e-4 / 2.1e-4 / 3.1e-5 / 1.1e-5),
+#: still within issue 28's level-3 and level-4 targets; the pressure inside the zone is closer
+#: (mean error at level 3 / 4: 1.6e-5 / 6.8e-6 of p0 against 3.9e-5 / 1.8e-5), the pressure L2
+#: error is set by the nodes next to the edges (3.2e-3 / 1.7e-3 / 1.05e-3 / 1.11e-3 / 4.6e-4
+#: against 4.5e-3 / 2.6e-3 / 1.4e-3 / 6.6e-4 / 2.4e-4: where the edge falls between nodes, level 3
+#: lands worse).
+INCOMPATIBLE_MODES = True
 
 
 @dataclass(frozen=True)
@@ -124,9 +116,10 @@ class MeshSpec:
         by the interface forces, fem.farfield: no finite-body error) or 'clamped' (body 1's
         top tied to the plate, body 2's bottom clamped, sides free).
     layout: 'rings' (graded rings around the windows with conforming 3:1 transitions,
-        fem.rings) or 'tensor' (the tensor product of an x and a depth axis; the default,
-        DEFAULT_LAYOUT says why).
-    incompatible: Q1 elements with incompatible modes (INCOMPATIBLE_MODES; no effect on Q2).
+        fem.rings; the default, DEFAULT_LAYOUT says why) or 'tensor' (the tensor product of an
+        x and a depth axis).
+    incompatible: Q1 elements with incompatible modes (INCOMPATIBLE_MODES, the default; no
+        effect on Q2).
     """
 
     level: int = 1

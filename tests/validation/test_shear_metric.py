@@ -52,8 +52,14 @@ def former_metric(res) -> float:
     return max(out)
 
 
-def passes_at_ratio(ratio: float):
-    case = at_ratio(load_case("cattaneo"), ratio)
+#: The FE of issue 25, on which the former metric failed: the default mesh then (the tensor
+#: layout, plain Q1).  On today's default (rings, incompatible modes) it measures 3.6 % at Q0 =
+#: 0.5 mu P: a more accurate FE, the same flawed metric.
+ISSUE25_FE = {"layout": "tensor", "incompatible": False}
+
+
+def passes_at_ratio(ratio: float, **fem):
+    case = at_ratio(load_case("cattaneo"), ratio).with_fem(**fem)
     res = run_case(case, analytic=solve_case(case))
     assert_agrees(res)
     assert res.metrics["shear_l2_error"] <= SHEAR_RTOL
@@ -63,12 +69,12 @@ def passes_at_ratio(ratio: float):
 def test_default_level_passes_where_the_former_metric_failed():
     res = passes_at_ratio(0.5)  # the load ratio of issue 25
     assert res.case.fem.level == load_case("cattaneo").fem.level
-    assert former_metric(res) > FORMER_SHEAR_RTOL  # measured 5.4 %
+    assert former_metric(passes_at_ratio(0.5, **ISSUE25_FE)) > FORMER_SHEAR_RTOL  # 5.4 %
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("ratio", sorted(set(RATIOS) - {0.5}))
 def test_default_level_passes_every_load_ratio(ratio):
-    res = passes_at_ratio(ratio)
+    passes_at_ratio(ratio)
     if ratio == 0.2:
-        assert former_metric(res) > FORMER_SHEAR_RTOL  # measured 8.4 %
+        assert former_metric(passes_at_ratio(ratio, **ISSUE25_FE)) > FORMER_SHEAR_RTOL  # 8.4 %

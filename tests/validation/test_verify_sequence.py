@@ -33,8 +33,10 @@ from compare.verify_sequence import (
     write_sequence_report,
 )
 
-#: Levels of the fast tests (-1: 24 elements per zone; a few seconds each).
-LEVELS = (-1, 0)
+#: Levels of the fast tests (level 1 is the library's run, shared).  Not -1: on the default
+#: mesh (rings, incompatible modes) cattaneo's stick edge is pre-asymptotic there (4.5e-3 /
+#: 3.7e-3 / 2.6e-4 of the width at levels -1 / 0 / 1: "stalls" from -1 to 0, as converge says).
+LEVELS = (0, 1)
 #: The sequence's h is the exported nodes' smallest spacing, converge's the FE's finest element
 #: (equal to 2 %, refinement ratios 1.97-2.00): the least-squares orders agree to this.
 ORDER_ATOL = 0.02

@@ -62,13 +62,17 @@ def test_hertz_edge_error_falls_at_order_one_and_both_sides_agree(contact_case):
     assert np.max(np.abs(np.subtract(by_gap, by_pressure))) < SIDES_AGREE * res.fem.h_min
 
 
-#: Richardson-extrapolated edges within 0.05 % of the width (issue 14; measured 0.0095 %).
+#: Richardson-extrapolated edges within 0.05 % of the width (issue 14; measured 0.0095 % on the
+#: plain Q1 tensor mesh, free refinement).  Phase-locked: on the default mesh (rings, incompatible
+#: modes) the free edges -9.2e-4 / -9.7e-5 / -5.9e-5 of the width at levels 0-2 carry the O(h)
+#: phase error, their apparent order 4.4 is outside metrics.RICHARDSON_ORDERS and the study
+#: rightly refuses to extrapolate; locked -7.1e-4 / -2.0e-4 / -5.6e-5 (order 1.8).
 RICHARDSON_EDGE = 5e-4
 
 
 @pytest.mark.slow
 def test_hertz_richardson_edges_close_to_analytic():
-    st = convergence("hertz", levels=(0, 1, 2))
+    st = convergence("hertz", levels=(0, 1, 2), phase_locked=True)
     assert abs(st.orders["pressure_l2_error"] - THEORETICAL_ORDER) < ORDER_BAND
     assert st.richardson_error < RICHARDSON_EDGE, st.richardson_reason
 

@@ -4,7 +4,11 @@ element at every level, so the stick-edge error stalled from level 3 (4.9e-5 / 4
 the width at levels 3 / 4 / 5, rings).  The edge estimators now fit a band of up to
 fem.results.EDGE_FIT_MAX (pressure side) / GAP_FIT_MAX (gap side) nodes on long runs, and the
 errors keep falling through level 4 (README, the ring-mesh table).  Ring layout, the library
-case's growth."""
+case's growth.  The floor is the estimators': it shows against plain Q1, whose level-3 FE error
+is far below it (its grading stiffness cancels part of the contact's own widening); with the
+incompatible modes (the default elements) the FE's own error at level 3 is 0.011 / 0.017
+element, at the old floor, so the estimator test runs on plain Q1 and the default elements get
+their own convergence test."""
 
 import numpy as np
 import pytest
@@ -18,17 +22,21 @@ from compare.run import normal_metrics, sample_metrics
 #: Contact / stick edge errors in elements at level 3: below the old estimators' floor (0.013 /
 #: 0.017 element); measured 0.0014 / 0.011.
 LEVEL3_EDGE_ELEMENTS, LEVEL3_STICK_ELEMENTS = 0.005, 0.014
-#: Issue 28's level-4 accuracy target, edge and stick (of the width); measured 2.8e-6 / 1.1e-5.
+#: Issue 28's level-4 accuracy target, edge and stick (of the width); measured 2.8e-6 / 1.1e-5
+#: (plain Q1), 1.45e-5 / 1.8e-5 (incompatible modes).
 LEVEL4_ACCURACY = 2e-5
-#: Observed order of the edge and stick errors over levels 2-4 (least squares); measured 2.5 /
-#: 2.1 (8.7e-5 / 3.9e-6 / 2.8e-6 and 2.1e-4 / 3.1e-5 / 1.1e-5; with the old estimators 1.0 /
-#: 1.2, and 0.27 for the stick edge from level 3 to 4).
-MIN_ORDER = 1.5
+#: Observed order of the edge and stick errors over levels 2-4 (least squares), per element
+#: (incompatible modes?): plain Q1 measured 2.5 / 2.1 (8.7e-5 / 3.9e-6 / 2.8e-6 and 2.1e-4 /
+#: 3.1e-5 / 1.1e-5; with the old estimators 1.0 / 1.2, and 0.27 for the stick edge from level
+#: 3 to 4); with the modes 1.0 / 1.5 (5.9e-5 / 3.1e-5 / 1.45e-5 and 1.5e-4 / 4.9e-5 / 1.8e-5:
+#: the free edge error's order 1, the phase's, no cancellation helping it).
+MIN_ORDER = {False: 1.5, True: 0.8}
 
 
-def errors(level: int) -> tuple[float, float, float, float]:
-    """(edge, stick, edge in elements, stick in elements) of cattaneo on rings at ``level``."""
-    case = load_case("cattaneo").with_fem(layout="rings", level=level)
+def errors(level: int, incompatible: bool = False) -> tuple[float, float, float, float]:
+    """(edge, stick, edge in elements, stick in elements) of cattaneo on rings at ``level``
+    (plain Q1 unless ``incompatible``)."""
+    case = load_case("cattaneo").with_fem(layout="rings", level=level, incompatible=incompatible)
     an = solve_case(case)
     hist = run_fem(case, an.normal)
     end = hist.stage(1)[-1]
@@ -49,14 +57,15 @@ def test_level3_edges_below_the_old_floor():
 
 
 @pytest.mark.slow
-def test_edges_converge_through_level4():
-    rows = [errors(level) for level in (2, 3, 4)]
+@pytest.mark.parametrize("incompatible", [False, True])
+def test_edges_converge_through_level4(incompatible):
+    rows = [errors(level, incompatible) for level in (2, 3, 4)]
     h = 2.0 ** -np.arange(3)
     edge, stick = [r[0] for r in rows], [r[1] for r in rows]
     print(f"edge {edge}, stick {stick}")
     assert edge[-1] <= LEVEL4_ACCURACY and stick[-1] <= LEVEL4_ACCURACY
-    assert observed_order(h, edge) >= MIN_ORDER
-    assert observed_order(h, stick) >= MIN_ORDER
+    assert observed_order(h, edge) >= MIN_ORDER[incompatible]
+    assert observed_order(h, stick) >= MIN_ORDER[incompatible]
 
 
 #: Issue 28's bar for the phase-locked edge error at level 5 (of the width): no stall above it;
