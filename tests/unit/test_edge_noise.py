@@ -112,9 +112,8 @@ def test_smooth_data_keep_sqrt_edge_exactly(phase):
 
 @pytest.mark.parametrize("n", [12, 5])
 def test_band_fits_skipping_end_nodes_are_the_fits_of_the_shorter_data(n):
-    """_wls_roots fits y(t) once per number k of skipped end points, with the covariances of all
-    fits from one stacked pseudo-inverse: each fit equals, to the last bit, the fit of the data
-    without those points (n = 5: quadratics and a line through the last 3 points); an exact
+    """_wls_roots fits y(t) once per number k of skipped end points, all k from one stacked QR:
+    each fit equals, to the last bit, the fit of the data without those points (n = 5: quadratics and a line through the last 3 points); an exact
     quadratic gives its root next to the end and a zero standard deviation."""
     t0 = 0.37
     t = -np.arange(float(n))
