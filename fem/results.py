@@ -355,11 +355,11 @@ def _wls_roots(t: np.ndarray, y: np.ndarray, sig: np.ndarray, skips: int
 
 def _wls_design(t: np.ndarray, y: np.ndarray, sig: np.ndarray) -> np.ndarray:
     """The weighted least-squares problem ``[1, t, t**2 | y] / sig`` (n x 4) of
-    :func:`_wls_roots` (the columns of np.vander(t, 3, increasing=True), then y)."""
-    design = np.empty((t.size, 4))
-    design[:, 0], design[:, 1], design[:, 2], design[:, 3] = 1.0, t, t * t, y
-    design /= sig[:, None]
-    return design
+    :func:`_wls_roots` (the columns of np.vander(t, 3, increasing=True), then y); one per row
+    of ``sig`` (B x n: B x n x 4)."""
+    cols = np.empty((t.size, 4))
+    cols[:, 0], cols[:, 1], cols[:, 2], cols[:, 3] = 1.0, t, t * t, y
+    return cols / sig[..., None]
 
 
 def _wls_roots_of(designs: list[np.ndarray], skips: int
@@ -488,14 +488,12 @@ def _band_fits(x: np.ndarray, f: np.ndarray, bands: list[np.ndarray], step: int,
     t = (x[nodes] - x[end]) * step / h
     fn = np.maximum(f[nodes], 0.0)
     sc = np.abs(fn if scale is None else scale[nodes])
-    top = np.maximum.accumulate(sc)  # np.max(sc) of each band
-    designs = []
-    for band in bands:
-        m = band.size
-        floor = BAND_NOISE_FLOOR * float(top[m - 1]) or 1.0
-        sig = np.maximum(fn[:m], floor) * np.maximum(sc[:m], floor)
-        designs.append(_wls_design(t[:m], fn[:m] ** 2, sig))
-    for fits in _wls_roots_of(designs, BAND_SKIPS):
+    sizes = [band.size for band in bands]
+    floor = BAND_NOISE_FLOOR * np.maximum.accumulate(sc)[np.array(sizes) - 1]  # of each band
+    floor[floor == 0] = 1.0
+    sig = np.maximum(fn, floor[:, None]) * np.maximum(sc, floor[:, None])  # a row per band
+    designs = _wls_design(t, fn ** 2, sig)
+    for fits in _wls_roots_of([d[:m] for d, m in zip(designs, sizes, strict=True)], BAND_SKIPS):
         yield _band_choice(fits, float(x[end]), step, h)
 
 
@@ -612,8 +610,14 @@ def contact_edge_estimates(x, p, status, candidate, gap=None) -> list[tuple[tupl
     otherwise the edge is taken from the gap side (:func:`gap_edge`) when ``gap`` is given and
     there are enough open nodes, else from the pressure side (:func:`edge_estimate`); a gap-side
     edge's uncertainty is the larger of the pressure side's and the two sides' distance."""
+    return _edge_estimates_of(x, p, status, candidate, gap, runs(status > OPEN))
+
+
+def _edge_estimates_of(x, p, status, candidate, gap, contact: list[tuple[int, int]]
+                       ) -> list[tuple[tuple, tuple]]:
+    """:func:`contact_edge_estimates` of the contact runs ``contact``."""
     out = []
-    for i0, i1 in runs(status > OPEN):
+    for i0, i1 in contact:
         ends = []
         for end, step in ((i0, -1), (i1, 1)):
             if not 0 <= end + step < x.size or not candidate[end + step] or \
@@ -704,10 +708,11 @@ def zones_with_uncertainty(x, p, q, status, candidate, mu, gap=None
                            ) -> tuple[tuple, tuple, tuple, tuple]:
     """(contact zones, stick zones, their edges' uncertainties): :func:`contact_and_stick` with
     per contact zone (u_a, u_b) and per stick zone (u_c, u_d) or None (lengths)."""
-    est = contact_edge_estimates(x, p, status, candidate, gap)
+    contact = runs(status > OPEN)
+    est = _edge_estimates_of(x, p, status, candidate, gap, contact)
     sticks = runs(status == STICK)
     aligned, unc = [], []
-    for ((a, ua), (b, ub)), (i0, i1) in zip(est, runs(status > OPEN), strict=True):
+    for ((a, ua), (b, ub)), (i0, i1) in zip(est, contact, strict=True):
         inside = stick_runs_of_zone([r for r in sticks if i0 <= r[0] and r[1] <= i1],
                                     (i0, i1))
         if not inside:
