@@ -8,8 +8,9 @@ tangential displacement of body 1 over body 2 (+x); status 0 open, 1 stick, 2 sl
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -350,7 +351,8 @@ def _wls_roots(t: np.ndarray, y: np.ndarray, sig: np.ndarray, skips: int
     """Per k < ``skips``: root (t < 0 side rising inwards: f**2 falls towards +t) and its
     standard deviation of the weighted least-squares quadratic (linear with 3 points) of y(t)
     through the points after the first k; None without one (see :func:`_wls_roots_of`)."""
-    return next(_wls_roots_of([_wls_design(t, y, sig)], skips))
+    fit = next(_wls_roots_of([_wls_design(t, y, sig)], skips))
+    return [fit(k) for k in range(skips)]
 
 
 def _wls_design(t: np.ndarray, y: np.ndarray, sig: np.ndarray) -> np.ndarray:
@@ -363,10 +365,10 @@ def _wls_design(t: np.ndarray, y: np.ndarray, sig: np.ndarray) -> np.ndarray:
 
 
 def _wls_roots_of(designs: list[np.ndarray], skips: int
-                  ) -> Iterator[list[tuple[float, float] | None]]:
-    """:func:`_wls_roots` of each of ``designs`` (:func:`_wls_design`) in turn, every fit from
-    one stacked Householder QR (:func:`_nested_qr`), each design's fits taken from it only when
-    asked for.
+                  ) -> Iterator[Callable[[int], tuple[float, float] | None]]:
+    """:func:`_wls_roots` of each of ``designs`` (:func:`_wls_design`) in turn, as a function
+    of k (< ``skips``) that solves fit k when called: every fit's factor from one stacked
+    Householder QR (:func:`_nested_qr`), its root and deviation only when asked for.
 
     The QR of a design less its first k rows gives its triangular factor R, ``Q^T y`` and the
     residual norm: the coefficients are R's back substitution and the root's variance
@@ -378,11 +380,13 @@ def _wls_roots_of(designs: list[np.ndarray], skips: int
     factors = _nested_qr(designs, counts).tolist()
     first = 0
     for design, count in zip(designs, counts, strict=True):
-        out: list = [None] * skips
-        for k in range(count):
-            out[k] = _wls_fit(factors[first + k], design[k:])
+        yield functools.partial(_wls_fit_k, factors[first:first + count], design)
         first += count
-        yield out
+
+
+def _wls_fit_k(factors: list, design: np.ndarray, k: int) -> tuple[float, float] | None:
+    """Fit k of a design (:func:`_wls_fit`; None beyond its factors)."""
+    return _wls_fit(factors[k], design[k:]) if k < len(factors) else None
 
 
 def _wls_fit(r: list, design: np.ndarray) -> tuple[float, float] | None:
@@ -392,21 +396,22 @@ def _wls_fit(r: list, design: np.ndarray) -> tuple[float, float] | None:
     if m < 2:
         return None
     deg = 2 if m >= 4 else 1
-    diag = [abs(r[i][i]) for i in range(deg + 1)]
-    if not min(diag) > max(m, deg + 1) * _EPS * max(diag):
+    (r00, r01, r02, r03), (_, r11, r12, r13), (_, _, r22, r23), (_, _, _, r33) = r
+    d0, d1, d2 = abs(r00), abs(r11), abs(r22) if deg == 2 else abs(r11)
+    if not min(d0, d1, d2) > max(m, deg + 1) * _EPS * max(d0, d1, d2):
         return _wls_root_lstsq(design[:, :deg + 1], design[:, 3], deg)
-    c2 = r[2][3] / r[2][2] if deg == 2 else 0.0
-    c1 = (r[1][3] - r[1][2] * c2) / r[1][1]
-    c0 = (r[0][3] - r[0][1] * c1 - r[0][2] * c2) / r[0][0]
+    c2 = r23 / r22 if deg == 2 else 0.0
+    c1 = (r13 - r12 * c2) / r11
+    c0 = (r03 - r01 * c1 - r02 * c2) / r00
     t0 = _nearest_root(c0, c1, c2, -1)
     if t0 is None:
         return None
     dof = m - deg - 1
-    rss = r[3][3] ** 2 + (r[2][3] ** 2 if deg == 1 else 0.0)
+    rss = r33 ** 2 + (r23 ** 2 if deg == 1 else 0.0)
     s2 = rss / dof if dof > 0 else 0.0
-    w0 = 1.0 / r[0][0]  # R^T w = g by forward substitution
-    w1 = (t0 - r[0][1] * w0) / r[1][1]
-    w2 = (t0 * t0 - r[0][2] * w0 - r[1][2] * w1) / r[2][2] if deg == 2 else 0.0
+    w0 = 1.0 / r00  # R^T w = g by forward substitution
+    w1 = (t0 - r01 * w0) / r11
+    w2 = (t0 * t0 - r02 * w0 - r12 * w1) / r22 if deg == 2 else 0.0
     var = s2 * (w0 * w0 + w1 * w1 + w2 * w2)
     return t0, math.sqrt(max(var, 0.0)) / abs(c1 + 2 * c2 * t0)
 
@@ -497,12 +502,17 @@ def _band_fits(x: np.ndarray, f: np.ndarray, bands: list[np.ndarray], step: int,
         yield _band_choice(fits, float(x[end]), step, h)
 
 
-def _band_choice(fits: list, x_end: float, step: int, h: float) -> tuple[float, float]:
-    """(edge, uncertainty) from a band's fits skipping k = 0, 1, ... end nodes (BAND_SKIPS,
-    BAND_AGREE, BAND_COVER)."""
-    k = next((k for k in range(BAND_SKIPS - 1) if fits[k] and fits[k + 1] and
-              abs(fits[k][0] - fits[k + 1][0]) <= BAND_COVER * math.hypot(
-                  fits[k][1], fits[k + 1][1]) + BAND_AGREE), None)
+def _band_choice(fit: Callable[[int], tuple[float, float] | None], x_end: float, step: int,
+                 h: float) -> tuple[float, float]:
+    """(edge, uncertainty) from a band's fits ``fit(k)`` skipping k = 0, 1, ... end nodes
+    (BAND_SKIPS, BAND_AGREE, BAND_COVER); fit k + 1 is solved only when fit k is not taken."""
+    fits, k = [fit(0)], None
+    for j in range(BAND_SKIPS - 1):
+        fits.append(fit(j + 1))
+        a, b = fits[j], fits[j + 1]
+        if a and b and abs(a[0] - b[0]) <= BAND_COVER * math.hypot(a[1], b[1]) + BAND_AGREE:
+            k = j
+            break
     if k is None:
         k = next((j for j in range(BAND_SKIPS - 1, -1, -1) if fits[j]), None)
         if k is None:
