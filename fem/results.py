@@ -375,7 +375,8 @@ def _wls_roots_of(designs: list[np.ndarray], skips: int
     ``s**2 |R^-T g|**2`` (g = (1, t0, t0**2); s**2 (R^T R)^-1 is the coefficients' covariance,
     s**2 the residual variance).  A fit whose R is numerically singular (or not finite) is
     :func:`_wls_root_lstsq`'s.  Each fit equals, to the last bit, that of the design without
-    the dropped rows and of the design alone (test_edge_noise)."""
+    the dropped rows and of the design alone, and the exact least-squares fit of the same data
+    to ~1e-13 (tests/unit/test_wls_fits.py, test_edge_noise.py)."""
     counts = [min(skips, d.shape[0]) for d in designs]
     factors = _nested_qr(designs, counts).tolist()
     first = 0
