@@ -8,7 +8,9 @@ tangential displacement of body 1 over body 2 (+x); status 0 open, 1 stick, 2 sl
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,9 +73,11 @@ class FemStep:
 
 def runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """Index ranges [i0, i1] (inclusive) of consecutive True entries."""
-    m = np.r_[False, mask, False].astype(np.int8)
-    starts = np.flatnonzero(np.diff(m) == 1)
-    ends = np.flatnonzero(np.diff(m) == -1) - 1
+    m = np.zeros(mask.size + 2, dtype=np.int8)
+    m[1:-1] = mask
+    d = m[1:] - m[:-1]
+    starts = (d == 1).nonzero()[0]
+    ends = (d == -1).nonzero()[0] - 1
     return list(zip(starts.tolist(), ends.tolist(), strict=True))
 
 
@@ -123,7 +127,7 @@ KINK_JUMP = 0.4
 
 def smooth_prefix(y: np.ndarray) -> int:
     """Length of the leading part of ``y`` (ordered away from an edge) before a kink."""
-    d = np.diff(y).tolist()  # Python floats: the same arithmetic, without 0-d arrays
+    d = (y[1:] - y[:-1]).tolist()  # Python floats: the same arithmetic, without 0-d arrays
     for j in range(1, len(d)):
         if abs(d[j] - d[j - 1]) > KINK_JUMP * abs(d[j - 1]):
             return j + 1
@@ -141,15 +145,14 @@ def power_root(xs: np.ndarray, ys: np.ndarray, x_end: float, rising: int, degree
     if n < 2:
         return None
     xs, ys = xs[:n], ys[:n]
-    scale = float(np.ptp(xs)) or 1.0
+    scale = float(xs.max() - xs.min()) or 1.0
     deg = min(degree, n - 1)
     c = np.zeros(3)
     c[:deg + 1] = _polyfit((xs - x_end) / scale, ys, deg)
-    roots = quadratic_roots(*c)
-    ok = roots[(c[1] + 2 * c[2] * roots) * rising > 0]
-    if ok.size == 0 or (skipped is not None and not _near_fit(c, scale, x_end, *skipped)):
+    root = _nearest_root(*c.tolist(), rising)
+    if root is None or (skipped is not None and not _near_fit(c, scale, x_end, *skipped)):
         return None
-    return x_end + scale * float(ok[np.argmin(np.abs(ok))])
+    return x_end + scale * root
 
 
 def _polyfit(t: np.ndarray, y: np.ndarray, deg: int) -> np.ndarray:
@@ -173,25 +176,43 @@ def _near_fit(c: np.ndarray, scale: float, x_end: float, xk: np.ndarray, yk: np.
               ) -> bool:
     """Whether the points (xk, yk) lie within SKIP_SHIFT elements (along x) of the polynomial
     ``c`` in ``t = (x - x_end) / scale``; the element is the spacing of the points."""
-    t = (xk - x_end) / scale
     c0, c1, c2 = c.tolist()
-    value, slope = c0 + (c1 + c2 * t) * t, (c1 + 2 * c2 * t) / scale  # Horner, as P.polyval
-    h = max(float(np.max(np.abs(np.diff(xk)))), abs(float(x_end - xk[-1]))) if xk.size > 1 \
-        else abs(float(xk[0] - x_end)) or 1.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        shift = np.abs((value - yk) / slope)
-    return bool(np.all(shift <= SKIP_SHIFT * h))
+    xs, x_end = xk.tolist(), float(x_end)
+    h = max(max(abs(b - a) for a, b in zip(xs[:-1], xs[1:], strict=True)),
+            abs(x_end - xs[-1])) \
+        if len(xs) > 1 else abs(xs[0] - x_end) or 1.0
+    for t, y in zip(((xk - x_end) / scale).tolist(), yk.tolist(), strict=True):
+        slope = (c1 + 2 * c2 * t) / scale
+        # Horner, as P.polyval; a zero slope: the shift is infinite (or undefined)
+        if slope == 0 or not abs((c0 + (c1 + c2 * t) * t - y) / slope) <= SKIP_SHIFT * h:
+            return False
+    return True
 
 
 def quadratic_roots(c0: float, c1: float, c2: float) -> np.ndarray:
     """Real roots of ``c0 + c1 t + c2 t**2`` (stable form; c2 may vanish)."""
+    return np.array(_root_list(float(c0), float(c1), float(c2)), dtype=float)
+
+
+def _root_list(c0: float, c1: float, c2: float) -> list[float]:
+    """:func:`quadratic_roots` as a list of Python floats (the same arithmetic)."""
     disc = c1 * c1 - 4 * c0 * c2
     if disc < 0 or (c1 == 0 and c2 == 0):
-        return np.empty(0)
-    s = -0.5 * (c1 + np.copysign(np.sqrt(disc), c1))
+        return []
+    s = -0.5 * (c1 + math.copysign(math.sqrt(disc), c1))
     if s == 0:  # c1 = 0 = c0 c2: a double root at 0
-        return np.zeros(1)
-    return np.array([c0 / s] + ([s / c2] if c2 != 0 else []))
+        return [0.0]
+    return [c0 / s] + ([s / c2] if c2 != 0 else [])
+
+
+def _nearest_root(c0: float, c1: float, c2: float, rising: int) -> float | None:
+    """The root of ``c0 + c1 t + c2 t**2`` nearest t = 0 (the first on a tie) where the
+    polynomial rises in the direction ``rising`` (+-1: slope times rising > 0); None without."""
+    best = None
+    for r in _root_list(c0, c1, c2):
+        if (c1 + 2 * c2 * r) * rising > 0 and (best is None or abs(r) < abs(best)):
+            best = r
+    return best
 
 
 def sqrt_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> float:
@@ -210,7 +231,7 @@ def sqrt_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> 
     end = i1 if step > 0 else i0
     inward = np.arange(end, i0 - 1, -1) if step > 0 else np.arange(end, i1 + 1)
     reach, (lo, hi) = inward.size // 3, edge_bounds(x, end, step)
-    fit = int(np.clip(inward.size // BAND_OF_RUN - EDGE_SKIP, EDGE_FIT, EDGE_FIT_MAX))
+    fit = min(max(inward.size // BAND_OF_RUN - EDGE_SKIP, EDGE_FIT), EDGE_FIT_MAX)
     nodes, outer = inward[EDGE_SKIP:min(EDGE_SKIP + fit, reach)], inward[:EDGE_SKIP]
     if nodes.size >= 3:
         root = power_root(x[nodes], f[nodes] ** 2, x[end], -step,
@@ -280,12 +301,13 @@ def _band(run: tuple[int, int], step: int, f: np.ndarray | None = None,
     n = min(max(int(BAND_FRACTION * inward.size), BAND_MIN), BAND_MAX, inward.size)
     if f is None or not inward.size:
         return inward[:n]
-    big = f[inward] > BAND_TRIM * float(np.max(f[inward]))
-    first = int(np.argmax(big)) if big.any() else 0
+    fi = f[inward]
+    big = fi > BAND_TRIM * float(fi.max())
+    first = int(big.argmax()) if big.any() else 0
     if inward.size - first >= BAND_MIN:
-        inward = inward[first:]
+        inward, fi = inward[first:], fi[first:]
     if to_peak:
-        n = min(n, max(int(np.argmax(f[inward[:n]])) + 1, BAND_MIN))
+        n = min(n, max(int(fi[:n].argmax()) + 1, BAND_MIN))
     return inward[:min(n, inward.size)]
 
 
@@ -297,15 +319,25 @@ def roughness(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int
     xs, y = x[nodes], f[nodes] ** 2
     if y.size < 7:
         return 0.0, 0.0
-    d = y.copy()
+    d = y
     for k in range(1, 4):
         d = (d[1:] - d[:-1]) / (xs[k:] - xs[:-k])
     span = np.abs(xs[3:] - xs[:-3]) / 3.0
     third = 6.0 * d * span**3
-    first = np.abs(np.diff(y))
-    flips = float(np.mean(np.sign(third[1:]) != np.sign(third[:-1])))
-    mean1 = float(np.mean(first))
-    return (float(np.median(np.abs(third))) / mean1 if mean1 > 0 else 0.0), flips
+    sign = np.sign(third)
+    flips = np.count_nonzero(sign[1:] != sign[:-1]) / (sign.size - 1)
+    mean1 = float(np.abs(y[1:] - y[:-1]).sum() / (y.size - 1))  # np.mean's sum and division
+    return (_median(np.abs(third)) / mean1 if mean1 > 0 else 0.0), flips
+
+
+def _median(a: np.ndarray) -> float:
+    """``np.median`` of a 1-d float array (the same order statistics and mean of the middle
+    two; NaN if a holds one), without its generic machinery."""
+    v = np.sort(a).tolist()
+    n = len(v)
+    if v[-1] != v[-1]:  # NaN sorts last
+        return math.nan
+    return v[n // 2] if n % 2 else (v[n // 2 - 1] + v[n // 2]) / 2
 
 
 def is_noisy(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int) -> bool:
@@ -318,41 +350,111 @@ def _wls_roots(t: np.ndarray, y: np.ndarray, sig: np.ndarray, skips: int
                ) -> list[tuple[float, float] | None]:
     """Per k < ``skips``: root (t < 0 side rising inwards: f**2 falls towards +t) and its
     standard deviation of the weighted least-squares quadratic (linear with 3 points) of y(t)
-    through the points after the first k; None without one.  Each fit is its own lstsq; the
-    pseudo-inverses of their normal matrices (the covariance) are taken in one stacked call
-    (bit-identical to one call each: test_edge_noise)."""
-    basis, rhs = np.vander(t, 3, increasing=True) / sig[:, None], y / sig
-    out: list = [None] * skips
-    todo: dict[int, list] = {1: [], 2: []}
-    for k in range(min(skips, t.size)):
-        deg = 2 if t.size - k >= 4 else 1
-        if t.size - k < deg + 1:
-            continue
-        A, b = basis[k:, :deg + 1].copy(), rhs[k:].copy()
-        c = np.linalg.lstsq(A, b, rcond=None)[0]
-        c1, c2 = float(c[1]), float(c[2]) if deg == 2 else 0.0
-        roots = quadratic_roots(float(c[0]), c1, c2)
-        ok = roots[c1 + 2 * c2 * roots < 0]
-        if ok.size == 0:
-            continue
-        dof = t.size - k - deg - 1
-        r = b - A @ c
-        s2 = float(r @ r) / dof if dof > 0 else 0.0
-        t0 = float(ok[np.argmin(np.abs(ok))])
-        todo[deg].append((k, A, s2, t0, abs(c1 + 2 * c2 * t0)))
-    for deg, fits in todo.items():
-        if not fits:
-            continue
-        inverses = np.linalg.pinv(np.stack([A.T @ A for _, A, _, _, _ in fits]))
-        for (k, _, s2, t0, slope), inv in zip(fits, inverses, strict=True):
-            cov = s2 * inv
-            g = t0 ** _POWERS[deg]
-            out[k] = (t0, float(np.sqrt(max(g @ cov @ g, 0.0))) / slope)
-    return out
+    through the points after the first k; None without one (see :func:`_wls_roots_of`)."""
+    fit = next(_wls_roots_of([_wls_design(t, y, sig)], skips))
+    return [fit(k) for k in range(skips)]
 
 
-#: Exponents of the basis 1, t, t**2 of :func:`_wls_roots`' line (deg 1) and quadratic (deg 2).
-_POWERS = {1: np.arange(2), 2: np.arange(3)}
+def _wls_design(t: np.ndarray, y: np.ndarray, sig: np.ndarray) -> np.ndarray:
+    """The weighted least-squares problem ``[1, t, t**2 | y] / sig`` (n x 4) of
+    :func:`_wls_roots` (the columns of np.vander(t, 3, increasing=True), then y); one per row
+    of ``sig`` (B x n: B x n x 4)."""
+    cols = np.empty((t.size, 4))
+    cols[:, 0], cols[:, 1], cols[:, 2], cols[:, 3] = 1.0, t, t * t, y
+    return cols / sig[..., None]
+
+
+def _wls_roots_of(designs: list[np.ndarray], skips: int
+                  ) -> Iterator[Callable[[int], tuple[float, float] | None]]:
+    """:func:`_wls_roots` of each of ``designs`` (:func:`_wls_design`) in turn, as a function
+    of k (< ``skips``) that solves fit k when called: every fit's factor from one stacked
+    Householder QR (:func:`_nested_qr`), its root and deviation only when asked for.
+
+    The QR of a design less its first k rows gives its triangular factor R, ``Q^T y`` and the
+    residual norm: the coefficients are R's back substitution and the root's variance
+    ``s**2 |R^-T g|**2`` (g = (1, t0, t0**2); s**2 (R^T R)^-1 is the coefficients' covariance,
+    s**2 the residual variance).  A fit whose R is numerically singular (or not finite) is
+    :func:`_wls_root_lstsq`'s.  Each fit equals, to the last bit, that of the design without
+    the dropped rows and of the design alone, and the exact least-squares fit of the same data
+    to ~1e-13 (tests/unit/test_wls_fits.py, test_edge_noise.py)."""
+    counts = [min(skips, d.shape[0]) for d in designs]
+    factors = _nested_qr(designs, counts).tolist()
+    first = 0
+    for design, count in zip(designs, counts, strict=True):
+        yield functools.partial(_wls_fit_k, factors[first:first + count], design)
+        first += count
+
+
+def _wls_fit_k(factors: list, design: np.ndarray, k: int) -> tuple[float, float] | None:
+    """Fit k of a design (:func:`_wls_fit`; None beyond its factors)."""
+    return _wls_fit(factors[k], design[k:]) if k < len(factors) else None
+
+
+def _wls_fit(r: list, design: np.ndarray) -> tuple[float, float] | None:
+    """(root, standard deviation) of one fit of :func:`_wls_roots_of` from its R (nested
+    lists, 4 x 4 upper triangle of the QR of ``design``); None without a root."""
+    m = design.shape[0]
+    if m < 2:
+        return None
+    deg = 2 if m >= 4 else 1
+    (r00, r01, r02, r03), (_, r11, r12, r13), (_, _, r22, r23), (_, _, _, r33) = r
+    d0, d1, d2 = abs(r00), abs(r11), abs(r22) if deg == 2 else abs(r11)
+    if not min(d0, d1, d2) > max(m, deg + 1) * _EPS * max(d0, d1, d2):
+        return _wls_root_lstsq(design[:, :deg + 1], design[:, 3], deg)
+    c2 = r23 / r22 if deg == 2 else 0.0
+    c1 = (r13 - r12 * c2) / r11
+    c0 = (r03 - r01 * c1 - r02 * c2) / r00
+    t0 = _nearest_root(c0, c1, c2, -1)
+    if t0 is None:
+        return None
+    dof = m - deg - 1
+    rss = r33 ** 2 + (r23 ** 2 if deg == 1 else 0.0)
+    s2 = rss / dof if dof > 0 else 0.0
+    w0 = 1.0 / r00  # R^T w = g by forward substitution
+    w1 = (t0 - r01 * w0) / r11
+    w2 = (t0 * t0 - r02 * w0 - r12 * w1) / r22 if deg == 2 else 0.0
+    var = s2 * (w0 * w0 + w1 * w1 + w2 * w2)
+    return t0, math.sqrt(max(var, 0.0)) / abs(c1 + 2 * c2 * t0)
+
+
+#: Rows of the stacked matrices of :func:`_nested_qr` (zeros below the data): a fixed shape up to
+#: BAND_MAX points, so that a fit's factor does not depend on how many points were dropped.
+_QR_ROWS = 32
+
+
+def _nested_qr(mats: list[np.ndarray], counts: list[int]) -> np.ndarray:
+    """Triangular factors R (sum(counts), c, c; the upper triangle, below it the reflectors) of
+    the Householder QR of ``a[k:]`` for each ``a`` (n x c, n >= 1) of ``mats`` and k = 0 ..
+    its count - 1, in that order, from one stacked ``numpy.linalg.qr``: each ``a[k:]`` is padded
+    with zero rows (which change no factor) to max(n, c, _QR_ROWS) rows over all ``mats``, the
+    same shape for every n <= _QR_ROWS, so the upper triangle of each factor does not depend on
+    what else was stacked, nor on whether the dropped rows were there (to the last bit)."""
+    c = mats[0].shape[1]
+    stack = np.zeros((sum(counts), max(max(a.shape[0] for a in mats), c, _QR_ROWS), c))
+    j = 0
+    for a, count in zip(mats, counts, strict=True):
+        for k in range(count):
+            stack[j, :a.shape[0] - k] = a[k:]
+            j += 1
+    h = np.linalg.qr(stack, mode="raw")[0]  # R^T in the leading c columns of h's rows
+    return np.swapaxes(h[..., :c], -1, -2)
+
+
+def _wls_root_lstsq(basis: np.ndarray, rhs: np.ndarray, deg: int) -> tuple[float, float] | None:
+    """One fit of :func:`_wls_roots_of` by minimum-norm least squares (``np.linalg.lstsq``) and
+    the pseudo-inverse of its normal matrix: for a design that is numerically rank-deficient
+    (e.g. repeated t), where the triangular factor cannot be inverted."""
+    c = np.linalg.lstsq(basis, rhs, rcond=None)[0]
+    c1, c2 = float(c[1]), float(c[2]) if deg == 2 else 0.0
+    t0 = _nearest_root(float(c[0]), c1, c2, -1)
+    if t0 is None:
+        return None
+    dof = rhs.size - deg - 1
+    r = rhs - basis @ c
+    s2 = float(r @ r) / dof if dof > 0 else 0.0
+    g = t0 ** np.arange(deg + 1)
+    cov = s2 * np.linalg.pinv(basis.T @ basis)
+    return t0, float(np.sqrt(max(g @ cov @ g, 0.0))) / abs(c1 + 2 * c2 * t0)
 
 
 def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
@@ -365,11 +467,12 @@ def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
     stick edge inside a stage-3 stick zone).  ``scale``: the magnitude that carries the nodal
     noise (default f itself: relative noise of the pressure; mu p for a stick edge, where
     mu p - |q| -> 0 but its noise does not)."""
-    nodes = _band(run, step, np.maximum(f, 0.0))
-    fit = _band_fit(x, f, nodes, step, scale)
-    while nodes.size // 2 >= BAND_MIN:  # the half band's fit is computed only when needed
-        nodes = nodes[:nodes.size // 2]
-        half = _band_fit(x, f, nodes, step, scale)
+    bands = [_band(run, step, np.maximum(f, 0.0))]
+    while bands[-1].size // 2 >= BAND_MIN:
+        bands.append(bands[-1][:bands[-1].size // 2])
+    fits = _band_fits(x, f, bands, step, scale)  # a half band's fit is taken only when needed
+    fit = next(fits)
+    for half in fits:
         if math.isfinite(fit[0]) and math.isfinite(half[0]) and abs(fit[0] - half[0]) <= \
                 math.hypot(fit[1], half[1]) * BAND_HALVE:
             return fit
@@ -377,28 +480,47 @@ def band_edge(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
     return fit
 
 
-def _band_fit(x: np.ndarray, f: np.ndarray, nodes: np.ndarray, step: int,
-              scale: np.ndarray | None) -> tuple[float, float]:
+def _band_fits(x: np.ndarray, f: np.ndarray, bands: list[np.ndarray], step: int,
+               scale: np.ndarray | None) -> Iterator[tuple[float, float]]:
+    """(edge, uncertainty) of the band fit of each of ``bands`` (nodes from the run's end
+    inwards, each a prefix of the first) in turn; their least-squares problems are solved
+    together (:func:`_wls_roots_of`)."""
+    nodes = bands[0]
     end = nodes[0]
     if nodes.size < 2 or not 0 <= end + step < x.size:
-        return math.nan, math.nan
+        yield from [(math.nan, math.nan)] * len(bands)
+        return
     h = abs(float(x[end + step] - x[end]))
     t = (x[nodes] - x[end]) * step / h
     fn = np.maximum(f[nodes], 0.0)
     sc = np.abs(fn if scale is None else scale[nodes])
-    floor = BAND_NOISE_FLOOR * float(np.max(sc)) or 1.0
-    sig = np.maximum(fn, floor) * np.maximum(sc, floor)
-    fits = _wls_roots(t, fn ** 2, sig, BAND_SKIPS)
-    k = next((k for k in range(BAND_SKIPS - 1) if fits[k] and fits[k + 1] and
-              abs(fits[k][0] - fits[k + 1][0]) <= BAND_COVER * math.hypot(
-                  fits[k][1], fits[k + 1][1]) + BAND_AGREE), None)
+    sizes = [band.size for band in bands]
+    floor = BAND_NOISE_FLOOR * np.maximum.accumulate(sc)[np.array(sizes) - 1]  # of each band
+    floor[floor == 0] = 1.0
+    sig = np.maximum(fn, floor[:, None]) * np.maximum(sc, floor[:, None])  # a row per band
+    designs = _wls_design(t, fn ** 2, sig)
+    for fits in _wls_roots_of([d[:m] for d, m in zip(designs, sizes, strict=True)], BAND_SKIPS):
+        yield _band_choice(fits, float(x[end]), step, h)
+
+
+def _band_choice(fit: Callable[[int], tuple[float, float] | None], x_end: float, step: int,
+                 h: float) -> tuple[float, float]:
+    """(edge, uncertainty) from a band's fits ``fit(k)`` skipping k = 0, 1, ... end nodes
+    (BAND_SKIPS, BAND_AGREE, BAND_COVER); fit k + 1 is solved only when fit k is not taken."""
+    fits, k = [fit(0)], None
+    for j in range(BAND_SKIPS - 1):
+        fits.append(fit(j + 1))
+        a, b = fits[j], fits[j + 1]
+        if a and b and abs(a[0] - b[0]) <= BAND_COVER * math.hypot(a[1], b[1]) + BAND_AGREE:
+            k = j
+            break
     if k is None:
         k = next((j for j in range(BAND_SKIPS - 1, -1, -1) if fits[j]), None)
         if k is None:
             return math.nan, math.nan
     t0, sd = fits[k]
     nxt = fits[k + 1][0] if k + 1 < BAND_SKIPS and fits[k + 1] else t0
-    return float(x[end]) + step * h * t0, h * math.hypot(BAND_COVER * sd, nxt - t0)
+    return x_end + step * h * t0, h * math.hypot(BAND_COVER * sd, nxt - t0)
 
 
 def edge_estimate(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
@@ -427,8 +549,9 @@ def edge_estimate(x: np.ndarray, f: np.ndarray, run: tuple[int, int], step: int,
 def _through_peak(run: tuple[int, int], step: int, f: np.ndarray) -> tuple[int, int]:
     """The run from its end in direction ``step`` inwards through the last node of its
     ``to_peak`` band when that band ends at an inner peak of f (else the whole run)."""
-    band = _band(run, step, np.maximum(f, 0.0), to_peak=True)
-    if band.size == _band(run, step, np.maximum(f, 0.0)).size:
+    fp = np.maximum(f, 0.0)
+    band = _band(run, step, fp, to_peak=True)
+    if band.size == _band(run, step, fp).size:
         return run
     last = int(band[-1])
     return (run[0], last) if step < 0 else (last, run[1])
@@ -498,8 +621,14 @@ def contact_edge_estimates(x, p, status, candidate, gap=None) -> list[tuple[tupl
     otherwise the edge is taken from the gap side (:func:`gap_edge`) when ``gap`` is given and
     there are enough open nodes, else from the pressure side (:func:`edge_estimate`); a gap-side
     edge's uncertainty is the larger of the pressure side's and the two sides' distance."""
+    return _edge_estimates_of(x, p, status, candidate, gap, runs(status > OPEN))
+
+
+def _edge_estimates_of(x, p, status, candidate, gap, contact: list[tuple[int, int]]
+                       ) -> list[tuple[tuple, tuple]]:
+    """:func:`contact_edge_estimates` of the contact runs ``contact``."""
     out = []
-    for i0, i1 in runs(status > OPEN):
+    for i0, i1 in contact:
         ends = []
         for end, step in ((i0, -1), (i1, 1)):
             if not 0 <= end + step < x.size or not candidate[end + step] or \
@@ -590,10 +719,11 @@ def zones_with_uncertainty(x, p, q, status, candidate, mu, gap=None
                            ) -> tuple[tuple, tuple, tuple, tuple]:
     """(contact zones, stick zones, their edges' uncertainties): :func:`contact_and_stick` with
     per contact zone (u_a, u_b) and per stick zone (u_c, u_d) or None (lengths)."""
-    est = contact_edge_estimates(x, p, status, candidate, gap)
+    contact = runs(status > OPEN)
+    est = _edge_estimates_of(x, p, status, candidate, gap, contact)
     sticks = runs(status == STICK)
     aligned, unc = [], []
-    for ((a, ua), (b, ub)), (i0, i1) in zip(est, runs(status > OPEN), strict=True):
+    for ((a, ua), (b, ub)), (i0, i1) in zip(est, contact, strict=True):
         inside = stick_runs_of_zone([r for r in sticks if i0 <= r[0] and r[1] <= i1],
                                     (i0, i1))
         if not inside:

@@ -8,14 +8,19 @@ local value), at several node spacings h and edge phases (where the edge falls b
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
+import fem.results as R
 from fem.results import (
     OPEN,
     SLIP,
     STICK,
+    _band,
     _wls_roots,
+    band_edge,
     contact_and_stick,
     edge_estimate,
     is_noisy,
@@ -112,10 +117,10 @@ def test_smooth_data_keep_sqrt_edge_exactly(phase):
 
 @pytest.mark.parametrize("n", [12, 5])
 def test_band_fits_skipping_end_nodes_are_the_fits_of_the_shorter_data(n):
-    """_wls_roots fits y(t) once per number k of skipped end points, with the covariances of all
-    fits from one stacked pseudo-inverse: each fit equals, to the last bit, the fit of the data
-    without those points (n = 5: quadratics and a line through the last 3 points); an exact
-    quadratic gives its root next to the end and a zero standard deviation."""
+    """_wls_roots fits y(t) once per number k of skipped end points, all k from one stacked QR:
+    each fit equals, to the last bit, the fit of the data without those points (n = 5:
+    quadratics and a line through the last 3 points); an exact quadratic gives its root next to
+    the end and a zero standard deviation."""
     t0 = 0.37
     t = -np.arange(float(n))
     y = (t0 - t) * (1.0 - 0.03 * t)  # falls towards +t through t0; its other root is far
@@ -129,6 +134,74 @@ def test_band_fits_skipping_end_nodes_are_the_fits_of_the_shorter_data(n):
     for k in range(3):
         assert fits[k] == _wls_roots(t[k:], noisy[k:], sig[k:], 1)[0]
         assert fits[k][1] > 0
+
+
+def band_edge_one_band_at_a_time(x, f, run, step, scale=None) -> tuple[tuple, int]:
+    """band_edge as first written (each band's fits its own _wls_roots, the half band's only
+    when needed), and how many times the band was halved."""
+    nodes = _band(run, step, np.maximum(f, 0.0))
+    fit, halved = one_band(x, f, nodes, step, scale), 0
+    while nodes.size // 2 >= R.BAND_MIN:
+        nodes = nodes[:nodes.size // 2]
+        half = one_band(x, f, nodes, step, scale)
+        if math.isfinite(fit[0]) and math.isfinite(half[0]) and abs(fit[0] - half[0]) <= \
+                math.hypot(fit[1], half[1]) * R.BAND_HALVE:
+            return fit, halved
+        fit, halved = half, halved + 1
+    return fit, halved
+
+
+def one_band(x, f, nodes, step, scale):
+    end = nodes[0]
+    if nodes.size < 2 or not 0 <= end + step < x.size:
+        return math.nan, math.nan
+    h = abs(float(x[end + step] - x[end]))
+    t = (x[nodes] - x[end]) * step / h
+    fn = np.maximum(f[nodes], 0.0)
+    sc = np.abs(fn if scale is None else scale[nodes])
+    floor = R.BAND_NOISE_FLOOR * float(np.max(sc)) or 1.0
+    sig = np.maximum(fn, floor) * np.maximum(sc, floor)
+    fits = _wls_roots(t, fn ** 2, sig, R.BAND_SKIPS)
+    k = next((k for k in range(R.BAND_SKIPS - 1) if fits[k] and fits[k + 1] and
+              abs(fits[k][0] - fits[k + 1][0]) <= R.BAND_COVER * math.hypot(
+                  fits[k][1], fits[k + 1][1]) + R.BAND_AGREE), None)
+    if k is None:
+        k = next((j for j in range(R.BAND_SKIPS - 1, -1, -1) if fits[j]), None)
+        if k is None:
+            return math.nan, math.nan
+    t0, sd = fits[k]
+    nxt = fits[k + 1][0] if k + 1 < R.BAND_SKIPS and fits[k + 1] else t0
+    return float(x[end]) + step * h * t0, h * math.hypot(R.BAND_COVER * sd, nxt - t0)
+
+
+def test_band_edge_solves_the_halved_bands_together_as_one_at_a_time():
+    """band_edge fits a band and its halves from one stacked QR: the same edges and
+    uncertainties to the last bit as fitting one band after the other, on noisy Hertz
+    pressures, the same with a kink 6 elements in (where the band is halved) or with the noise
+    carried by a larger magnitude (the weights' floor then differs between a band and its half),
+    and on stage-3 stick data."""
+    halved = 0
+    for phase in PHASES[::4]:
+        x, p, _ = hertz(40, phase, "period3")
+        (run,) = runs(p > 0)
+        kinked = p * (1.0 + 2.0 * np.maximum(0.0, 0.85 - np.abs(x)))
+        xs, ps, qs, status, _ = unloaded(40, phase, 0.63, 0.8)
+        (stick,) = runs(status == STICK)
+        f = np.maximum(0.3 * ps + qs, 0.0)  # mu p - s q, s = -1: reverse slip
+        for step in (-1, 1):
+            for args in ((x, p, run, step), (x, kinked, run, step), (x, p, run, step, 5 * p),
+                         (xs, f, stick, step, 0.3 * ps)):
+                ref, times = band_edge_one_band_at_a_time(*args)
+                assert np.array_equal(band_edge(*args), ref, equal_nan=True)
+                halved += times
+                x_, f_, run_, _, scale = (*args, None)[:5]
+                bands = [_band(run_, step, np.maximum(f_, 0.0))]
+                while bands[-1].size // 2 >= R.BAND_MIN:
+                    bands.append(bands[-1][:bands[-1].size // 2])
+                got = list(R._band_fits(x_, f_, bands, step, scale))
+                want = [one_band(x_, f_, b, step, scale) for b in bands]
+                assert np.array_equal(got, want, equal_nan=True)
+    assert halved >= 5
 
 
 def cattaneo(n: int, phase: float, c: float, mu: float = 0.3, noisy: bool = True):
