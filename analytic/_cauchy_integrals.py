@@ -13,6 +13,8 @@ bits in any set of targets and any block size.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from analytic._traction_panels import PANEL_NODES, RHO_NEAR, Quadrature, Rule, legendre
@@ -37,6 +39,10 @@ UPSAMPLE = 4
 """Equal sub-panels of a panel's upsampled rule (G at its fixed nodes interpolated once per
 panel): a near target whose pole lies outside the RHO_NEAR ellipse of every one of them takes
 it instead of sub-panels graded towards its pole (no per-target interpolation)."""
+ELLIPSE_DISC = 1.01 * 0.5 * (RHO_NEAR + 1.0 / RHO_NEAR)
+"""Radius (half-widths) of a disc about a sub-panel's centre holding its RHO_NEAR Bernstein
+ellipse (semi-major axis (RHO_NEAR + 1/RHO_NEAR)/2, 1 % margin for rounding): a pole outside it
+lies outside the ellipse, decided without its Bernstein radius."""
 REFINED_NODES = 2**15
 """Sub-panel nodes (pairs x sub-panels x PANEL_NODES) per block of the refined sums: the Legendre
 table is 16 x this many floats (4 MB; 256 pairs of any depth took up to 20 MB at the surface);
@@ -127,10 +133,19 @@ def _near_discs(rule: Rule) -> tuple[np.ndarray, np.ndarray]:
     return c, NEAR_MARGIN * np.max(np.abs(s - c[:, None]), axis=1)
 
 
-def _near_pairs(rule: Rule, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(target, block) pairs with the pole inside the block's RHO_NEAR ellipse, and the pole."""
-    c, r = _near_discs(rule)
+def _near_pairs(rule: Rule, w: np.ndarray, discs: tuple | None = None,
+                allowed: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(target, block) pairs with the pole inside the block's RHO_NEAR ellipse, and the pole.
+
+    ``discs``: the blocks' :func:`_near_discs` (computed here if None); ``allowed(it, jp)``: a
+    mask of the candidate pairs (target in a block's disc) to consider at all, applied before
+    their poles are computed (each pole is computed alone: the same bits either way)."""
+    c, r = _near_discs(rule) if discs is None else discs
     it, jp = np.nonzero(np.abs(w[:, None] - c[None, :]) < r[None, :])
+    if allowed is not None:
+        ok = allowed(it, jp)
+        it, jp = it[ok], jp[ok]
     up = _poles(rule, w[it], jp)
     near = _bernstein(up) < RHO_NEAR
     return it[near], jp[near], up[near]
@@ -178,7 +193,11 @@ def _upsampled_suffices(up: np.ndarray) -> np.ndarray:
     """True where the pole ``up`` (panel units) lies outside the RHO_NEAR ellipse of every
     sub-panel of the upsampled rule."""
     c, h = _quarters()
-    return np.all(_bernstein((up[:, None] - c[None, :]) / h) >= RHO_NEAR, axis=1)
+    u = (up[:, None] - c[None, :]) / h
+    ok = np.ones(u.shape, bool)
+    maybe = np.abs(u) <= ELLIPSE_DISC  # elsewhere outside the ellipse: no radius computed
+    ok[maybe] = _bernstein(u[maybe]) >= RHO_NEAR
+    return np.all(ok, axis=1)
 
 
 def _quarters() -> tuple[np.ndarray, float]:
@@ -215,12 +234,21 @@ def _graded(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
     panel units.  A foot on a panel end is that end exactly, so neighbouring panels meet
     without gap or overlap and agree on ``s(tc) - x``.  Each side of the foot gets the levels
     that reach its panel end (pairs are batched by the number of sub-panels).
+
+    A target on the surface (``Im w = 0``) whose foot lies inside the panel is the pole itself:
+    the central sub-panel is then the widest one symmetric about it (to the nearer panel end),
+    on which the Gauss rule, symmetric about the pole, gives the principal value (exactly for
+    polynomial densities, ``G (t - t_c) / (s - x)`` being analytic there: its nearest other
+    pole, the mirror ``-t_c`` or ``2 pi - t_c``, lies >= 2 half-widths from the centre, Bernstein
+    radius >= 2 + sqrt 3 > RHO_NEAR); ``Re F`` is the principal value, ``F'`` is meaningless.
     """
     ta, tb = rule.ta[jp], rule.tb[jp]
     th = 0.5 * (tb - ta)
     tp = 0.5 * (ta + tb) + th * up
     tc = np.clip(tp.real, ta, tb)
-    d = np.maximum(np.abs(tp - tc) / th, MIN_POLE)
+    gap = np.abs(tp - tc) / th
+    axis = (gap == 0) & (w.imag == 0) & (tc > ta) & (tc < tb)
+    d = np.where(axis, 2 * np.minimum(tc - ta, tb - tc) / th, np.maximum(gap, MIN_POLE))
     for end in (ta, tb):  # a foot a rounding error from a panel end is that end
         tc = np.where(np.abs(tc - end) < SNAP * d * th, end, tc)
     left = _side_levels((tc - ta) / th, d)
@@ -232,17 +260,21 @@ def _graded(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
         pairs = max(1, REFINED_NODES // (int(n) * PANEL_NODES))
         for i in range(0, sel.size, pairs):
             k = sel[i:i + pairs]
-            F[k], dF[k] = _graded_sums(rule, w[k], jp[k], tc[k], d[k], left[k], int(n))
+            F[k], dF[k] = _graded_sums(rule, w[k], jp[k], tc[k], d[k], left[k], int(n),
+                                       axis[k])
     return F, dF
 
 
 def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: np.ndarray,
-                 left: np.ndarray, total: int) -> tuple[np.ndarray, np.ndarray]:
+                 left: np.ndarray, total: int, axis: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """Gauss sums of F, F' on the graded sub-panels of one batch (``total`` sub-panel ends,
     ``left`` of them before the foot).
 
     ``s - x`` is formed as ``(s(t_c) - x) + half (cos t_c - cos t)`` with ``t - t_c`` from the
     sub-panel offsets, so it keeps its relative accuracy at depths far below the node spacing.
+    ``axis``: pairs whose target is the foot itself (on the surface, see :func:`_graded`):
+    ``s(t_c) - x`` is taken as exactly 0, so the central sub-panel is symmetric about the pole.
     """
     ta, tb = rule.ta[jp], rule.tb[jp]
     th = 0.5 * (tb - ta)
@@ -253,8 +285,11 @@ def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: n
     wf = th[:, None] * (h[:, :, None] * wq).reshape(len(jp), -1)
     half, t0 = rule.half[jp, None], tc[:, None]
     off0, end = rule.position(jp[:, None], t0)
-    e = ((end - w.real[:, None]) + off0
-         + 2 * half * np.sin(t0 + 0.5 * dt) * np.sin(0.5 * dt))
+    base = (end - w.real[:, None]) + off0
+    if axis is not None:
+        base[axis] = 0.0
+    mid_dt = 0.5 * dt
+    e = base + 2 * half * np.sin(t0 + mid_dt) * np.sin(mid_dt)
     uf = (t0 + dt - 0.5 * (ta + tb)[:, None]) / th[:, None]
     G = _legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]
     kr, ki = _kernel(e, w.imag[:, None])
@@ -332,24 +367,59 @@ def _sub_sums(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
 
 
 def cauchy(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``F(w)`` and ``F'(w)`` for Im w >= 0 (the principal value on the contact surface).
+    """``F(w)`` and ``F'(w)`` for Im w >= 0 (on the contact surface Re F is the principal
+    value, see :func:`principal_values` for an accurate one).
 
     Plain sums: per sub-interval its coarse block (smooth sub-intervals, targets far from it)
     or its panels (:func:`_sub_sums`).  Targets near a panel whose sums they took get that
     panel's integral on graded sub-panels instead.  Every target's value is the same bits in
     any set of targets.
     """
+    return _cauchy(quad, w, np.zeros(w.shape, bool))
+
+
+def principal_values(quad: Quadrature, x: np.ndarray, e: np.ndarray,
+                     axis: np.ndarray) -> np.ndarray:
+    """``PV int f(s) / (s - x) ds`` (n, 2) at surface points x: ``Re F + e Im F'`` at the
+    lifted ``x + i e`` (``e > 0``, error O(e^2)), but for the targets ``axis`` the panels near
+    them integrated on the surface itself (:func:`_graded`, no lift error; the far sums keep
+    the lift: they are smooth there).  Every target's value is the same bits in any set of
+    targets."""
+    F, dF = _cauchy(quad, x + 1j * e, axis)
+    return F.real + e[:, None] * dF.imag
+
+
+def _cauchy(quad: Quadrature, w: np.ndarray, axis: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`cauchy`, the near panels of the targets ``axis`` integrated at ``Re w``
+    (their F' parts left out)."""
     pan = quad.panels
     F, dF, panels_used = _sub_sums(quad, w)
-    upsampled = upsample(pan)
+    upsampled, discs = upsample(pan), _near_discs(pan)
     for i in range(0, w.size, TARGET_CHUNK):
         part = w[i:i + TARGET_CHUNK]
-        it, jp, up = _near_pairs(pan, part)
-        keep = panels_used[i + it, pan.parent[jp]]
-        it, jp, up = it[keep], jp[keep], up[keep]
+        it, jp, up = _near_pairs(pan, part, discs,
+                                 lambda it, jp, i=i: panels_used[i + it, pan.parent[jp]])
         if it.size:
-            new = _refined(pan, upsampled, part[it], jp, up)
+            new = _near_sums(pan, upsampled, part[it], jp, up, axis[i + it])
             old = _block_sums(pan, part[it], jp)
             _scatter(F[i:i + TARGET_CHUNK], it, new[0] - old[0])
             _scatter(dF[i:i + TARGET_CHUNK], it, new[1] - old[1])
+    return F, dF
+
+
+def _near_sums(rule: Rule, upsampled: tuple, w: np.ndarray, jp: np.ndarray, up: np.ndarray,
+               axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_refined` at ``w``, but at ``Re w`` (pole recomputed there) for the pairs
+    ``axis``, whose F' is set to 0."""
+    if not axis.any():
+        return _refined(rule, upsampled, w, jp, up)
+    F = np.empty((w.size, rule.G.shape[1]), complex)
+    dF = np.zeros_like(F)
+    lift = np.flatnonzero(~axis)
+    if lift.size:
+        F[lift], dF[lift] = _refined(rule, upsampled, w[lift], jp[lift], up[lift])
+    on = np.flatnonzero(axis)
+    x = w[on].real.astype(complex)
+    F[on] = _refined(rule, upsampled, x, jp[on], _poles(rule, x, jp[on]))[0]
     return F, dF
