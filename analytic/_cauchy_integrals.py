@@ -2,13 +2,14 @@
 panels (:mod:`analytic._traction_panels`), at any ``w`` with ``Im w >= 0``.
 
 Plain Gauss sums, sub-interval by sub-interval: a smooth sub-interval's one coarse block for
-the targets outside a disc around it, its panels for the others (and always the panels of a
-sub-interval with a kink end).  A target whose pole ``cos t = tau`` lies close to a panel whose
-sums it took (Bernstein radius below ``RHO_NEAR``) gets that panel's integral again on
-sub-panels graded geometrically (ratio ``GRADE``) towards the pole on each side, as many as
-reach that side's panel end, with G interpolated from the panel's nodes (no further density
-evaluations); it stays accurate to rounding at any depth.  Every target's value has the same
-bits in any set of targets and any block size.
+the targets outside a disc around it; for the others (and always for a sub-interval with a kink
+end) per two neighbouring panels their pair block for the targets outside its disc, where it
+reproduces the panels' moments, else the two panels.  A target whose pole ``cos t = tau`` lies
+close to a panel whose sums it took (Bernstein radius below ``RHO_NEAR``) gets that panel's
+integral again on sub-panels graded geometrically (ratio ``GRADE``) towards the pole on each
+side, as many as reach that side's panel end, with G interpolated from the panel's nodes (no
+further density evaluations); it stays accurate to rounding at any depth.  Every target's
+value has the same bits in any set of targets and any block size.
 """
 
 from __future__ import annotations
@@ -337,32 +338,58 @@ def _scatter(F: np.ndarray, it: np.ndarray, values: np.ndarray) -> None:
         F[:, c].imag += np.bincount(it, values[:, c].imag, minlength=F.shape[0])
 
 
-def _add_far(F: np.ndarray, dF: np.ndarray, rule: Rule, blocks: np.ndarray, w: np.ndarray,
-             sel: np.ndarray) -> None:
-    """Add the plain Gauss sums of ``blocks`` for the targets ``sel``."""
+def _add_far(F: np.ndarray, dF: np.ndarray, parts: list[tuple[Rule, np.ndarray]],
+             w: np.ndarray, sel: np.ndarray) -> None:
+    """Add the plain Gauss sums of the blocks ``parts`` (``(rule, blocks)`` pairs, summed
+    together) for the targets ``sel``."""
     if sel.size:
-        idx = rule.nodes(blocks).ravel()
-        f, df = _far(rule.s[idx], rule.wt[idx, None] * rule.G[idx], w[sel])
+        idx = [(rule, rule.nodes(blocks).ravel()) for rule, blocks in parts]
+        f, df = _far(np.concatenate([rule.s[i] for rule, i in idx]),
+                     np.concatenate([rule.wt[i, None] * rule.G[i] for rule, i in idx]), w[sel])
         F[sel] += f
         dF[sel] += df
 
 
+def _patterns(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of a boolean (n, m) mask and each row's index among them."""
+    if mask.shape[1] > 62:  # beyond an int64 code: sort the rows themselves
+        keys, group = np.unique(mask, axis=0, return_inverse=True)
+        return keys, group.ravel()
+    codes, group = np.unique(mask @ (1 << np.arange(mask.shape[1], dtype=np.int64)),
+                             return_inverse=True)
+    return (codes[:, None] >> np.arange(mask.shape[1])) & 1 == 1, group.ravel()
+
+
 def _sub_sums(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Plain Gauss sums, sub-interval by sub-interval: its one coarse block for the targets
-    outside the disc that holds its RHO_NEAR ellipse (a smooth sub-interval), its panels for the
-    others.  Returns F, F' and the (n_targets, n_sub) mask of the targets that took the
-    panels."""
+    outside the disc that holds its RHO_NEAR ellipse (a smooth sub-interval); for the others,
+    per two neighbouring panels their pair block for the targets outside its disc (where it
+    agrees with them, ``quad.paired``), else the two panels; the targets that take the same
+    blocks are summed together.  Returns F, F' and the (n_targets, n_panels) mask of the
+    panels each target took: the RHO_NEAR ellipses of a block's panels lie inside the
+    block's, so a pole in a panel's ellipse is in a taken one.
+    """
+    pan, pairs = quad.panels, quad.pairs
     F = np.zeros((w.size, 2), complex)
     dF = np.zeros_like(F)
-    panels_used = np.ones((w.size, quad.smooth.size), bool)
+    panels_used = np.zeros((w.size, pan.ta.size), bool)
     c, r = _near_discs(quad.coarse)  # the disc holding each coarse block's RHO_NEAR ellipse
+    pc, pr = _near_discs(pairs)
     for k in range(quad.smooth.size):
-        if quad.smooth[k]:
-            panels_used[:, k] = np.abs(w - c[k]) < r[k]
-        near = panels_used[:, k]
-        _add_far(F, dF, quad.panels, np.flatnonzero(quad.panels.parent == k), w,
-                 np.flatnonzero(near))
-        _add_far(F, dF, quad.coarse, np.array([k]), w, np.flatnonzero(~near))
+        near = np.abs(w - c[k]) < r[k] if quad.smooth[k] else np.ones(w.size, bool)
+        _add_far(F, dF, [(quad.coarse, np.array([k]))], w, np.flatnonzero(~near))
+        sel = np.flatnonzero(near)
+        js = np.flatnonzero(pan.parent == k)
+        ms = np.unique(quad.pair_of[js])
+        ms = ms[ms >= 0]
+        ms = ms[quad.paired[ms]]
+        far = np.abs(w[sel, None] - pc[None, ms]) >= pr[None, ms]  # (targets, usable pairs)
+        keys, group = _patterns(far)
+        for g, key in enumerate(keys):
+            rows = sel[group == g]
+            blocks = js[~np.isin(quad.pair_of[js], ms[key])]
+            _add_far(F, dF, [(pairs, ms[key]), (pan, blocks)], w, rows)
+            panels_used[rows[:, None], blocks[None, :]] = True
     return F, dF, panels_used
 
 
@@ -371,9 +398,9 @@ def cauchy(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     value, see :func:`principal_values` for an accurate one).
 
     Plain sums: per sub-interval its coarse block (smooth sub-intervals, targets far from it)
-    or its panels (:func:`_sub_sums`).  Targets near a panel whose sums they took get that
-    panel's integral on graded sub-panels instead.  Every target's value is the same bits in
-    any set of targets.
+    or, per two neighbouring panels, their pair block or the panels (:func:`_sub_sums`).
+    Targets near a panel whose sums they took get that panel's integral on graded sub-panels
+    instead.  Every target's value is the same bits in any set of targets.
     """
     return _cauchy(quad, w, np.zeros(w.shape, bool))
 
@@ -398,8 +425,7 @@ def _cauchy(quad: Quadrature, w: np.ndarray, axis: np.ndarray
     upsampled, discs = upsample(pan), _near_discs(pan)
     for i in range(0, w.size, TARGET_CHUNK):
         part = w[i:i + TARGET_CHUNK]
-        it, jp, up = _near_pairs(pan, part, discs,
-                                 lambda it, jp, i=i: panels_used[i + it, pan.parent[jp]])
+        it, jp, up = _near_pairs(pan, part, discs, lambda it, jp, i=i: panels_used[i + it, jp])
         if it.size:
             new = _near_sums(pan, upsampled, part[it], jp, up, axis[i + it])
             old = _block_sums(pan, part[it], jp)
