@@ -71,18 +71,19 @@ def _far(s: np.ndarray, WG: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.n
     return F, dF
 
 
-def _kernel(a: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Real and imaginary parts of ``1/(a - i z)`` (``a`` real offsets, ``z`` the heights)."""
-    r = 1.0 / (a * a + z * z)
-    return a * r, z * r
-
-
-def _squares(kr: np.ndarray, ki: np.ndarray) -> np.ndarray:
-    """``(Re k, Im k, Re k^2, Im k^2)`` stacked on a new first axis."""
-    K = np.empty((4, *kr.shape))
-    K[0], K[1] = kr, ki
-    np.multiply(kr - ki, kr + ki, out=K[2])
-    np.multiply(kr, ki, out=K[3])
+def _kernel_squares(a: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """``(Re k, Im k, Re k^2, Im k^2)`` of ``k = 1/(a - i z)`` (``a`` real offsets, ``z`` the
+    heights) stacked on a new first axis, formed in place."""
+    K = np.empty((4, *a.shape))
+    r = a * a
+    r += z * z
+    np.divide(1.0, r, out=r)
+    np.multiply(a, r, out=K[0])
+    np.multiply(z, r, out=K[1])
+    np.subtract(K[0], K[1], out=K[2])
+    np.add(K[0], K[1], out=K[3])
+    K[2] *= K[3]
+    np.multiply(K[0], K[1], out=K[3])
     K[3] *= 2.0
     return K
 
@@ -223,8 +224,7 @@ def _upsampled_sums(upsampled: tuple, w: np.ndarray, jp: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
     """The sums of blocks ``jp`` on their upsampled rules for targets ``w`` (one per target)."""
     s, wt, G = upsampled
-    kr, ki = _kernel(s[jp] - w.real[:, None], w.imag[:, None])
-    return _pair_sums(wt[jp], kr, ki, G[jp])
+    return _pair_sums(wt[jp], s[jp] - w.real[:, None], w.imag[:, None], G[jp])
 
 
 def _graded(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
@@ -293,8 +293,7 @@ def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: n
     e = base + 2 * half * np.sin(t0 + mid_dt) * np.sin(mid_dt)
     uf = (t0 + dt - 0.5 * (ta + tb)[:, None]) / th[:, None]
     G = _legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]
-    kr, ki = _kernel(e, w.imag[:, None])
-    return _pair_sums(wf, kr, ki, G)
+    return _pair_sums(wf, e, w.imag[:, None], G)
 
 
 def _legvander(x: np.ndarray, deg: int) -> np.ndarray:
@@ -314,11 +313,11 @@ def _legvander(x: np.ndarray, deg: int) -> np.ndarray:
     return np.moveaxis(v, 0, -1)
 
 
-def _pair_sums(wt: np.ndarray, kr: np.ndarray, ki: np.ndarray, G: np.ndarray
+def _pair_sums(wt: np.ndarray, a: np.ndarray, z: np.ndarray, G: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
-    """Per row n: ``F = sum_f wt k G`` and ``F' = sum_f wt k^2 G`` (``k = kr + i ki`` at the
+    """Per row n: ``F = sum_f wt k G`` and ``F' = sum_f wt k^2 G`` (``k = 1/(a - i z)`` at the
     row's nodes f, G (n, f, 2) real): one real (4, f) x (f, 2) product per row."""
-    K = _squares(kr, ki)
+    K = _kernel_squares(a, z)
     K *= wt[None]
     S = np.moveaxis(K, 0, 1) @ G
     return S[:, 0] + 1j * S[:, 1], S[:, 2] + 1j * S[:, 3]
@@ -327,8 +326,7 @@ def _pair_sums(wt: np.ndarray, kr: np.ndarray, ki: np.ndarray, G: np.ndarray
 def _block_sums(rule: Rule, w: np.ndarray, jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target)."""
     idx = rule.nodes(jp)
-    kr, ki = _kernel(rule.s[idx] - w.real[:, None], w.imag[:, None])
-    return _pair_sums(rule.wt[idx], kr, ki, rule.G[idx])
+    return _pair_sums(rule.wt[idx], rule.s[idx] - w.real[:, None], w.imag[:, None], rule.G[idx])
 
 
 def _scatter(F: np.ndarray, it: np.ndarray, values: np.ndarray) -> None:
