@@ -129,3 +129,13 @@ def test_pairs_refused_at_a_kink(states):
     refused = np.flatnonzero(~quad.paired)
     assert refused.size and quad.paired.any()
     assert max(pair_errors(states[-1], m)[0] for m in refused) > 1e3 * PAIR_AGREE
+
+
+@pytest.mark.parametrize("cols", [0, 1, 5, 62, 63, 70])
+def test_patterns_are_the_distinct_rows(cols):
+    rng = np.random.default_rng(cols)
+    mask = rng.random((300, cols)) < 0.5
+    mask[100:200] = mask[0]  # repeated rows
+    keys, group = ci._patterns(mask)
+    assert np.array_equal(keys[group], mask)
+    assert len({k.tobytes() for k in keys}) == len(keys)
