@@ -353,8 +353,10 @@ def _patterns(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if mask.shape[1] > 62:  # beyond an int64 code: sort the rows themselves
         keys, group = np.unique(mask, axis=0, return_inverse=True)
         return keys, group.ravel()
-    codes, group = np.unique(mask @ (1 << np.arange(mask.shape[1], dtype=np.int64)),
-                             return_inverse=True)
+    code = np.zeros(mask.shape[0], np.int64)
+    for i in range(mask.shape[1]):  # column by column: no (n, m) integer temporary
+        code |= mask[:, i].astype(np.int64) << i
+    codes, group = np.unique(code, return_inverse=True)
     return (codes[:, None] >> np.arange(mask.shape[1])) & 1 == 1, group.ravel()
 
 
@@ -381,7 +383,11 @@ def _sub_sums(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
         ms = np.unique(quad.pair_of[js])
         ms = ms[ms >= 0]
         ms = ms[quad.paired[ms]]
-        far = np.abs(w[sel, None] - pc[None, ms]) >= pr[None, ms]  # (targets, usable pairs)
+        ws = w[sel]
+        far = np.empty((sel.size, ms.size), bool)  # (targets, usable pairs), column by column
+        for i, m in enumerate(ms):
+            far[:, i] = np.abs(ws - pc[m]) >= pr[m]
+        del ws
         keys, group = _patterns(far)
         for g, key in enumerate(keys):
             rows = sel[group == g]
