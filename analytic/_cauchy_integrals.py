@@ -2,16 +2,19 @@
 panels (:mod:`analytic._traction_panels`), at any ``w`` with ``Im w >= 0``.
 
 Plain Gauss sums, sub-interval by sub-interval: a smooth sub-interval's one coarse block for
-the targets outside a disc around it, its panels for the others (and always the panels of a
-sub-interval with a kink end).  A target whose pole ``cos t = tau`` lies close to a panel whose
-sums it took (Bernstein radius below ``RHO_NEAR``) gets that panel's integral again on
-sub-panels graded geometrically (ratio ``GRADE``) towards the pole on each side, as many as
-reach that side's panel end, with G interpolated from the panel's nodes (no further density
-evaluations); it stays accurate to rounding at any depth.  Every target's value has the same
-bits in any set of targets and any block size.
+the targets outside a disc around it; for the others (and always for a sub-interval with a kink
+end) per two neighbouring panels their pair block for the targets outside its disc, where it
+reproduces the panels' moments, else the two panels.  A target whose pole ``cos t = tau`` lies
+close to a panel whose sums it took (Bernstein radius below ``RHO_NEAR``) gets that panel's
+integral again on sub-panels graded geometrically (ratio ``GRADE``) towards the pole on each
+side, as many as reach that side's panel end, with G interpolated from the panel's nodes (no
+further density evaluations); it stays accurate to rounding at any depth.  Every target's
+value has the same bits in any set of targets and any block size.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -37,6 +40,10 @@ UPSAMPLE = 4
 """Equal sub-panels of a panel's upsampled rule (G at its fixed nodes interpolated once per
 panel): a near target whose pole lies outside the RHO_NEAR ellipse of every one of them takes
 it instead of sub-panels graded towards its pole (no per-target interpolation)."""
+ELLIPSE_DISC = 1.01 * 0.5 * (RHO_NEAR + 1.0 / RHO_NEAR)
+"""Radius (half-widths) of a disc about a sub-panel's centre holding its RHO_NEAR Bernstein
+ellipse (semi-major axis (RHO_NEAR + 1/RHO_NEAR)/2, 1 % margin for rounding): a pole outside it
+lies outside the ellipse, decided without its Bernstein radius."""
 REFINED_NODES = 2**15
 """Sub-panel nodes (pairs x sub-panels x PANEL_NODES) per block of the refined sums: the Legendre
 table is 16 x this many floats (4 MB; 256 pairs of any depth took up to 20 MB at the surface);
@@ -64,18 +71,19 @@ def _far(s: np.ndarray, WG: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.n
     return F, dF
 
 
-def _kernel(a: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Real and imaginary parts of ``1/(a - i z)`` (``a`` real offsets, ``z`` the heights)."""
-    r = 1.0 / (a * a + z * z)
-    return a * r, z * r
-
-
-def _squares(kr: np.ndarray, ki: np.ndarray) -> np.ndarray:
-    """``(Re k, Im k, Re k^2, Im k^2)`` stacked on a new first axis."""
-    K = np.empty((4, *kr.shape))
-    K[0], K[1] = kr, ki
-    np.multiply(kr - ki, kr + ki, out=K[2])
-    np.multiply(kr, ki, out=K[3])
+def _kernel_squares(a: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """``(Re k, Im k, Re k^2, Im k^2)`` of ``k = 1/(a - i z)`` (``a`` real offsets, ``z`` the
+    heights) stacked on a new first axis, formed in place."""
+    K = np.empty((4, *a.shape))
+    r = a * a
+    r += z * z
+    np.divide(1.0, r, out=r)
+    np.multiply(a, r, out=K[0])
+    np.multiply(z, r, out=K[1])
+    np.subtract(K[0], K[1], out=K[2])
+    np.add(K[0], K[1], out=K[3])
+    K[2] *= K[3]
+    np.multiply(K[0], K[1], out=K[3])
     K[3] *= 2.0
     return K
 
@@ -127,10 +135,19 @@ def _near_discs(rule: Rule) -> tuple[np.ndarray, np.ndarray]:
     return c, NEAR_MARGIN * np.max(np.abs(s - c[:, None]), axis=1)
 
 
-def _near_pairs(rule: Rule, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(target, block) pairs with the pole inside the block's RHO_NEAR ellipse, and the pole."""
-    c, r = _near_discs(rule)
+def _near_pairs(rule: Rule, w: np.ndarray, discs: tuple | None = None,
+                allowed: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(target, block) pairs with the pole inside the block's RHO_NEAR ellipse, and the pole.
+
+    ``discs``: the blocks' :func:`_near_discs` (computed here if None); ``allowed(it, jp)``: a
+    mask of the candidate pairs (target in a block's disc) to consider at all, applied before
+    their poles are computed (each pole is computed alone: the same bits either way)."""
+    c, r = _near_discs(rule) if discs is None else discs
     it, jp = np.nonzero(np.abs(w[:, None] - c[None, :]) < r[None, :])
+    if allowed is not None:
+        ok = allowed(it, jp)
+        it, jp = it[ok], jp[ok]
     up = _poles(rule, w[it], jp)
     near = _bernstein(up) < RHO_NEAR
     return it[near], jp[near], up[near]
@@ -178,7 +195,11 @@ def _upsampled_suffices(up: np.ndarray) -> np.ndarray:
     """True where the pole ``up`` (panel units) lies outside the RHO_NEAR ellipse of every
     sub-panel of the upsampled rule."""
     c, h = _quarters()
-    return np.all(_bernstein((up[:, None] - c[None, :]) / h) >= RHO_NEAR, axis=1)
+    u = (up[:, None] - c[None, :]) / h
+    ok = np.ones(u.shape, bool)
+    maybe = np.abs(u) <= ELLIPSE_DISC  # elsewhere outside the ellipse: no radius computed
+    ok[maybe] = _bernstein(u[maybe]) >= RHO_NEAR
+    return np.all(ok, axis=1)
 
 
 def _quarters() -> tuple[np.ndarray, float]:
@@ -203,8 +224,7 @@ def _upsampled_sums(upsampled: tuple, w: np.ndarray, jp: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
     """The sums of blocks ``jp`` on their upsampled rules for targets ``w`` (one per target)."""
     s, wt, G = upsampled
-    kr, ki = _kernel(s[jp] - w.real[:, None], w.imag[:, None])
-    return _pair_sums(wt[jp], kr, ki, G[jp])
+    return _pair_sums(wt[jp], s[jp] - w.real[:, None], w.imag[:, None], G[jp])
 
 
 def _graded(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
@@ -215,12 +235,21 @@ def _graded(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
     panel units.  A foot on a panel end is that end exactly, so neighbouring panels meet
     without gap or overlap and agree on ``s(tc) - x``.  Each side of the foot gets the levels
     that reach its panel end (pairs are batched by the number of sub-panels).
+
+    A target on the surface (``Im w = 0``) whose foot lies inside the panel is the pole itself:
+    the central sub-panel is then the widest one symmetric about it (to the nearer panel end),
+    on which the Gauss rule, symmetric about the pole, gives the principal value (exactly for
+    polynomial densities, ``G (t - t_c) / (s - x)`` being analytic there: its nearest other
+    pole, the mirror ``-t_c`` or ``2 pi - t_c``, lies >= 2 half-widths from the centre, Bernstein
+    radius >= 2 + sqrt 3 > RHO_NEAR); ``Re F`` is the principal value, ``F'`` is meaningless.
     """
     ta, tb = rule.ta[jp], rule.tb[jp]
     th = 0.5 * (tb - ta)
     tp = 0.5 * (ta + tb) + th * up
     tc = np.clip(tp.real, ta, tb)
-    d = np.maximum(np.abs(tp - tc) / th, MIN_POLE)
+    gap = np.abs(tp - tc) / th
+    axis = (gap == 0) & (w.imag == 0) & (tc > ta) & (tc < tb)
+    d = np.where(axis, 2 * np.minimum(tc - ta, tb - tc) / th, np.maximum(gap, MIN_POLE))
     for end in (ta, tb):  # a foot a rounding error from a panel end is that end
         tc = np.where(np.abs(tc - end) < SNAP * d * th, end, tc)
     left = _side_levels((tc - ta) / th, d)
@@ -232,17 +261,21 @@ def _graded(rule: Rule, w: np.ndarray, jp: np.ndarray, up: np.ndarray
         pairs = max(1, REFINED_NODES // (int(n) * PANEL_NODES))
         for i in range(0, sel.size, pairs):
             k = sel[i:i + pairs]
-            F[k], dF[k] = _graded_sums(rule, w[k], jp[k], tc[k], d[k], left[k], int(n))
+            F[k], dF[k] = _graded_sums(rule, w[k], jp[k], tc[k], d[k], left[k], int(n),
+                                       axis[k])
     return F, dF
 
 
 def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: np.ndarray,
-                 left: np.ndarray, total: int) -> tuple[np.ndarray, np.ndarray]:
+                 left: np.ndarray, total: int, axis: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """Gauss sums of F, F' on the graded sub-panels of one batch (``total`` sub-panel ends,
     ``left`` of them before the foot).
 
     ``s - x`` is formed as ``(s(t_c) - x) + half (cos t_c - cos t)`` with ``t - t_c`` from the
     sub-panel offsets, so it keeps its relative accuracy at depths far below the node spacing.
+    ``axis``: pairs whose target is the foot itself (on the surface, see :func:`_graded`):
+    ``s(t_c) - x`` is taken as exactly 0, so the central sub-panel is symmetric about the pole.
     """
     ta, tb = rule.ta[jp], rule.tb[jp]
     th = 0.5 * (tb - ta)
@@ -253,12 +286,14 @@ def _graded_sums(rule: Rule, w: np.ndarray, jp: np.ndarray, tc: np.ndarray, d: n
     wf = th[:, None] * (h[:, :, None] * wq).reshape(len(jp), -1)
     half, t0 = rule.half[jp, None], tc[:, None]
     off0, end = rule.position(jp[:, None], t0)
-    e = ((end - w.real[:, None]) + off0
-         + 2 * half * np.sin(t0 + 0.5 * dt) * np.sin(0.5 * dt))
+    base = (end - w.real[:, None]) + off0
+    if axis is not None:
+        base[axis] = 0.0
+    mid_dt = 0.5 * dt
+    e = base + 2 * half * np.sin(t0 + mid_dt) * np.sin(mid_dt)
     uf = (t0 + dt - 0.5 * (ta + tb)[:, None]) / th[:, None]
     G = _legvander(uf, PANEL_NODES - 1) @ rule.coef[jp]
-    kr, ki = _kernel(e, w.imag[:, None])
-    return _pair_sums(wf, kr, ki, G)
+    return _pair_sums(wf, e, w.imag[:, None], G)
 
 
 def _legvander(x: np.ndarray, deg: int) -> np.ndarray:
@@ -278,11 +313,11 @@ def _legvander(x: np.ndarray, deg: int) -> np.ndarray:
     return np.moveaxis(v, 0, -1)
 
 
-def _pair_sums(wt: np.ndarray, kr: np.ndarray, ki: np.ndarray, G: np.ndarray
+def _pair_sums(wt: np.ndarray, a: np.ndarray, z: np.ndarray, G: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
-    """Per row n: ``F = sum_f wt k G`` and ``F' = sum_f wt k^2 G`` (``k = kr + i ki`` at the
+    """Per row n: ``F = sum_f wt k G`` and ``F' = sum_f wt k^2 G`` (``k = 1/(a - i z)`` at the
     row's nodes f, G (n, f, 2) real): one real (4, f) x (f, 2) product per row."""
-    K = _squares(kr, ki)
+    K = _kernel_squares(a, z)
     K *= wt[None]
     S = np.moveaxis(K, 0, 1) @ G
     return S[:, 0] + 1j * S[:, 1], S[:, 2] + 1j * S[:, 3]
@@ -291,8 +326,7 @@ def _pair_sums(wt: np.ndarray, kr: np.ndarray, ki: np.ndarray, G: np.ndarray
 def _block_sums(rule: Rule, w: np.ndarray, jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The plain Gauss sums of blocks ``jp`` for targets ``w`` (one block per target)."""
     idx = rule.nodes(jp)
-    kr, ki = _kernel(rule.s[idx] - w.real[:, None], w.imag[:, None])
-    return _pair_sums(rule.wt[idx], kr, ki, rule.G[idx])
+    return _pair_sums(rule.wt[idx], rule.s[idx] - w.real[:, None], w.imag[:, None], rule.G[idx])
 
 
 def _scatter(F: np.ndarray, it: np.ndarray, values: np.ndarray) -> None:
@@ -302,54 +336,120 @@ def _scatter(F: np.ndarray, it: np.ndarray, values: np.ndarray) -> None:
         F[:, c].imag += np.bincount(it, values[:, c].imag, minlength=F.shape[0])
 
 
-def _add_far(F: np.ndarray, dF: np.ndarray, rule: Rule, blocks: np.ndarray, w: np.ndarray,
-             sel: np.ndarray) -> None:
-    """Add the plain Gauss sums of ``blocks`` for the targets ``sel``."""
+def _add_far(F: np.ndarray, dF: np.ndarray, parts: list[tuple[Rule, np.ndarray]],
+             w: np.ndarray, sel: np.ndarray) -> None:
+    """Add the plain Gauss sums of the blocks ``parts`` (``(rule, blocks)`` pairs, summed
+    together) for the targets ``sel``."""
     if sel.size:
-        idx = rule.nodes(blocks).ravel()
-        f, df = _far(rule.s[idx], rule.wt[idx, None] * rule.G[idx], w[sel])
+        idx = [(rule, rule.nodes(blocks).ravel()) for rule, blocks in parts]
+        f, df = _far(np.concatenate([rule.s[i] for rule, i in idx]),
+                     np.concatenate([rule.wt[i, None] * rule.G[i] for rule, i in idx]), w[sel])
         F[sel] += f
         dF[sel] += df
 
 
+def _patterns(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct rows of a boolean (n, m) mask and each row's index among them."""
+    if mask.shape[1] > 62:  # beyond an int64 code: sort the rows themselves
+        keys, group = np.unique(mask, axis=0, return_inverse=True)
+        return keys, group.ravel()
+    code = np.zeros(mask.shape[0], np.int64)
+    for i in range(mask.shape[1]):  # column by column: no (n, m) integer temporary
+        code |= mask[:, i].astype(np.int64) << i
+    codes, group = np.unique(code, return_inverse=True)
+    return (codes[:, None] >> np.arange(mask.shape[1])) & 1 == 1, group.ravel()
+
+
 def _sub_sums(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Plain Gauss sums, sub-interval by sub-interval: its one coarse block for the targets
-    outside the disc that holds its RHO_NEAR ellipse (a smooth sub-interval), its panels for the
-    others.  Returns F, F' and the (n_targets, n_sub) mask of the targets that took the
-    panels."""
+    outside the disc that holds its RHO_NEAR ellipse (a smooth sub-interval); for the others,
+    per two neighbouring panels their pair block for the targets outside its disc (where it
+    agrees with them, ``quad.paired``), else the two panels; the targets that take the same
+    blocks are summed together.  Returns F, F' and the (n_targets, n_panels) mask of the
+    panels each target took: the RHO_NEAR ellipses of a block's panels lie inside the
+    block's, so a pole in a panel's ellipse is in a taken one.
+    """
+    pan, pairs = quad.panels, quad.pairs
     F = np.zeros((w.size, 2), complex)
     dF = np.zeros_like(F)
-    panels_used = np.ones((w.size, quad.smooth.size), bool)
+    panels_used = np.zeros((w.size, pan.ta.size), bool)
     c, r = _near_discs(quad.coarse)  # the disc holding each coarse block's RHO_NEAR ellipse
+    pc, pr = _near_discs(pairs)
     for k in range(quad.smooth.size):
-        if quad.smooth[k]:
-            panels_used[:, k] = np.abs(w - c[k]) < r[k]
-        near = panels_used[:, k]
-        _add_far(F, dF, quad.panels, np.flatnonzero(quad.panels.parent == k), w,
-                 np.flatnonzero(near))
-        _add_far(F, dF, quad.coarse, np.array([k]), w, np.flatnonzero(~near))
+        near = np.abs(w - c[k]) < r[k] if quad.smooth[k] else np.ones(w.size, bool)
+        _add_far(F, dF, [(quad.coarse, np.array([k]))], w, np.flatnonzero(~near))
+        sel = np.flatnonzero(near)
+        js = np.flatnonzero(pan.parent == k)
+        ms = np.unique(quad.pair_of[js])
+        ms = ms[ms >= 0]
+        ms = ms[quad.paired[ms]]
+        ws = w[sel]
+        far = np.empty((sel.size, ms.size), bool)  # (targets, usable pairs), column by column
+        for i, m in enumerate(ms):
+            far[:, i] = np.abs(ws - pc[m]) >= pr[m]
+        del ws
+        keys, group = _patterns(far)
+        for g, key in enumerate(keys):
+            rows = sel[group == g]
+            blocks = js[~np.isin(quad.pair_of[js], ms[key])]
+            _add_far(F, dF, [(pairs, ms[key]), (pan, blocks)], w, rows)
+            panels_used[rows[:, None], blocks[None, :]] = True
     return F, dF, panels_used
 
 
 def cauchy(quad: Quadrature, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``F(w)`` and ``F'(w)`` for Im w >= 0 (the principal value on the contact surface).
+    """``F(w)`` and ``F'(w)`` for Im w >= 0 (on the contact surface Re F is the principal
+    value, see :func:`principal_values` for an accurate one).
 
     Plain sums: per sub-interval its coarse block (smooth sub-intervals, targets far from it)
-    or its panels (:func:`_sub_sums`).  Targets near a panel whose sums they took get that
-    panel's integral on graded sub-panels instead.  Every target's value is the same bits in
-    any set of targets.
+    or, per two neighbouring panels, their pair block or the panels (:func:`_sub_sums`).
+    Targets near a panel whose sums they took get that panel's integral on graded sub-panels
+    instead.  Every target's value is the same bits in any set of targets.
     """
+    return _cauchy(quad, w, np.zeros(w.shape, bool))
+
+
+def principal_values(quad: Quadrature, x: np.ndarray, e: np.ndarray,
+                     axis: np.ndarray) -> np.ndarray:
+    """``PV int f(s) / (s - x) ds`` (n, 2) at surface points x: ``Re F + e Im F'`` at the
+    lifted ``x + i e`` (``e > 0``, error O(e^2)), but for the targets ``axis`` the panels near
+    them integrated on the surface itself (:func:`_graded`, no lift error; the far sums keep
+    the lift: they are smooth there).  Every target's value is the same bits in any set of
+    targets."""
+    F, dF = _cauchy(quad, x + 1j * e, axis)
+    return F.real + e[:, None] * dF.imag
+
+
+def _cauchy(quad: Quadrature, w: np.ndarray, axis: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`cauchy`, the near panels of the targets ``axis`` integrated at ``Re w``
+    (their F' parts left out)."""
     pan = quad.panels
     F, dF, panels_used = _sub_sums(quad, w)
-    upsampled = upsample(pan)
+    upsampled, discs = upsample(pan), _near_discs(pan)
     for i in range(0, w.size, TARGET_CHUNK):
         part = w[i:i + TARGET_CHUNK]
-        it, jp, up = _near_pairs(pan, part)
-        keep = panels_used[i + it, pan.parent[jp]]
-        it, jp, up = it[keep], jp[keep], up[keep]
+        it, jp, up = _near_pairs(pan, part, discs, lambda it, jp, i=i: panels_used[i + it, jp])
         if it.size:
-            new = _refined(pan, upsampled, part[it], jp, up)
+            new = _near_sums(pan, upsampled, part[it], jp, up, axis[i + it])
             old = _block_sums(pan, part[it], jp)
             _scatter(F[i:i + TARGET_CHUNK], it, new[0] - old[0])
             _scatter(dF[i:i + TARGET_CHUNK], it, new[1] - old[1])
+    return F, dF
+
+
+def _near_sums(rule: Rule, upsampled: tuple, w: np.ndarray, jp: np.ndarray, up: np.ndarray,
+               axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_refined` at ``w``, but at ``Re w`` (pole recomputed there) for the pairs
+    ``axis``, whose F' is set to 0."""
+    if not axis.any():
+        return _refined(rule, upsampled, w, jp, up)
+    F = np.empty((w.size, rule.G.shape[1]), complex)
+    dF = np.zeros_like(F)
+    lift = np.flatnonzero(~axis)
+    if lift.size:
+        F[lift], dF[lift] = _refined(rule, upsampled, w[lift], jp[lift], up[lift])
+    on = np.flatnonzero(axis)
+    x = w[on].real.astype(complex)
+    F[on] = _refined(rule, upsampled, x, jp[on], _poles(rule, x, jp[on]))[0]
     return F, dF

@@ -98,11 +98,18 @@ class Rule:
 class Quadrature:
     """Two levels: ``panels`` (PANELS per sub-interval, graded at kinks) and ``coarse`` (one
     block per sub-interval without a kink end, used for targets far from the whole of it).
-    ``smooth``: per sub-interval, True where it has a coarse block."""
+    ``smooth``: per sub-interval, True where it has a coarse block.  Between them ``pairs``:
+    one block on each two neighbouring panels of a sub-interval (``pair_of``: per panel the
+    index of its pair block, -1 for the last of an odd number), used for targets near the
+    sub-interval but far from the two panels where ``paired`` (per pair block: it reproduces
+    its panels' moments, :func:`_blocks_agree`)."""
 
     panels: Rule
     coarse: Rule
     smooth: np.ndarray
+    pairs: Rule
+    paired: np.ndarray
+    pair_of: np.ndarray
 
 
 @lru_cache(maxsize=4)
@@ -196,7 +203,51 @@ def _build_quadrature(solution) -> Quadrature:
     panels = _adapted(solution, blocks, kink_ends)
     coarse = _rule(solution, [(lo, hi, 0.0, np.pi, k) for k, (lo, hi, _, _) in enumerate(subs)])
     smooth = _coarse_agrees(coarse, panels) & np.array([not (kl or kr) for _, _, kl, kr in subs])
-    return Quadrature(panels, coarse, smooth)
+    pair_of, pair_blocks = _pair_up(panels)
+    pairs = _rule(solution, pair_blocks)
+    return Quadrature(panels, coarse, smooth, pairs, _blocks_agree(pairs, panels, pair_of),
+                      pair_of)
+
+
+def _pair_up(panels: Rule) -> tuple[np.ndarray, list]:
+    """Per panel the index of its pair block (-1: none) and the pair blocks ``(lo, hi, ta, tb,
+    parent)``: panels 0-1, 2-3, ... of each sub-interval in t order (they are contiguous)."""
+    pair_of = np.full(panels.ta.size, -1)
+    blocks = []
+    for k in np.unique(panels.parent):
+        js = np.flatnonzero(panels.parent == k)  # in t order (_adapted sorts them)
+        for a, b in zip(js[0:-1:2], js[1::2], strict=True):
+            pair_of[[a, b]] = len(blocks)
+            blocks.append((panels.lo[a], panels.hi[a], panels.ta[a], panels.tb[b], int(k)))
+    return pair_of, blocks
+
+
+def _blocks_agree(big: Rule, small: Rule, owner: np.ndarray) -> np.ndarray:
+    """Per block of ``big``: it integrates ``G T_k(u)``, ``k < COARSE_MOMENTS`` (u its own
+    variable in t, -1..1), as the blocks of ``small`` it covers do (``owner``: per small block
+    the big block, -1 for none), to COARSE_TOL of their ``int |G|`` after weighting by
+    ``RHO_NEAR^-k`` (the kernel ``1/(s - w)`` of a target whose pole lies outside the big
+    block's RHO_NEAR ellipse expands in these with coefficients ~ ``RHO_NEAR^-k``): the
+    standard of :func:`_coarse_agrees` on the block's own variable."""
+    def moments(rule: Rule, own: np.ndarray) -> np.ndarray:
+        u = legendre(PANEL_NODES)[0]
+        t = 0.5 * (rule.ta + rule.tb)[:, None] + 0.5 * (rule.tb - rule.ta)[:, None] * u
+        v = (t - 0.5 * (big.ta + big.tb)[own, None]) / (0.5 * (big.tb - big.ta)[own, None])
+        T = np.cos(np.arange(COARSE_MOMENTS) * np.arccos(np.clip(v, -1.0, 1.0))[..., None])
+        out = np.zeros((big.ta.size, COARSE_MOMENTS, 2))
+        np.add.at(out, own.repeat(PANEL_NODES), (rule.wt[:, None] * T.reshape(-1, COARSE_MOMENTS))
+                  [:, :, None] * rule.G[:, None, :])
+        return out
+
+    mine = np.flatnonzero(owner >= 0)
+    small = _take(small, mine)
+    own = owner[mine]
+    size = np.zeros(big.ta.size)
+    np.add.at(size, own.repeat(PANEL_NODES), small.wt * np.max(np.abs(small.G), 1))
+    decay = RHO_NEAR ** -np.arange(COARSE_MOMENTS)[None, :, None]
+    diff = np.max(np.abs(moments(big, np.arange(big.ta.size)) - moments(small, own)) * decay,
+                  axis=1)
+    return np.all(diff <= COARSE_TOL * np.where(size > 0, size, 1.0)[:, None], axis=1)
 
 
 def _coarse_agrees(coarse: Rule, panels: Rule) -> np.ndarray:

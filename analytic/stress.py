@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analytic._cauchy_integrals import cauchy
+from analytic._cauchy_integrals import cauchy, principal_values
 from analytic._traction_panels import Quadrature, normal_of, quadrature, tractions
 from analytic.errors import InputError
 from analytic.normal import NormalSolution
@@ -57,6 +57,16 @@ end above the surface, with a first-order Taylor correction (see _principal_valu
 SURFACE_LIFT_MIN = 1e-6
 """Floor of that distance, relative to the contact span: on a sub-interval end the lift is
 1e-12 of the span (the error there is O(sqrt(e)) relative, ~1e-6, from the sqrt ends)."""
+SURFACE_AXIS_GAP = 1e-5
+"""Points at least this fraction of the contact span from every panel end take the panels near
+them on the surface itself (no lift error; see _principal_values); the pole then lies >= ~1e-5
+panel widths from the neighbouring panels, far above the graded rule's MIN_POLE."""
+SURFACE_AXIS_LIFT = 1e-7
+"""Their lift as a fraction of that gap (so at least 1e-12 of the span, as above): it serves only
+the plain sums of the other panels, whose nearest singularities (the ends of the near panels)
+lie at least the gap away, so the O(e^2) remainder is ~1e-14 relative (a lift of 1e-6 of the
+distance to a sub-interval end left 6e-13 p0 on the Hertz sliding surface; 1e-8 of the gap
+made a target next to a Gauss node 4x worse: 1.4e-12 p0, the plain sums' 1/(s - w))."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -155,16 +165,22 @@ def _principal_values(solution, quad: Quadrature, x: np.ndarray) -> np.ndarray:
     The lift ``e`` is SURFACE_LIFT times the distance to the nearest sub-interval end (at least
     SURFACE_LIFT_MIN of the contact span), so the O(e^2) remainder stays ~1e-12 relative even
     next to a sqrt edge, and the off-surface rule, accurate to rounding at any depth, does the
-    rest.
+    rest.  Points SURFACE_AXIS_GAP or more from every panel end take the panels near them on
+    the surface itself, a Gauss rule symmetric about the pole (no lift error there, and a few
+    sub-panels instead of ~20 graded down to the lift's depth); only the plain sums of the
+    panels far from them keep the lift (:func:`analytic._cauchy_integrals.principal_values`).
     """
     pan = quad.panels
     ends = np.unique(np.r_[pan.lo, pan.hi])
     zones = normal_of(solution).zones
-    floor = SURFACE_LIFT_MIN * (zones[-1][1] - zones[0][0])
+    span = zones[-1][1] - zones[0][0]
     dist = np.min(np.abs(x[:, None] - ends[None, :]), axis=1)
-    e = SURFACE_LIFT * np.maximum(dist, floor)
-    F, dF = cauchy(quad, x + 1j * e)
-    return F.real + e[:, None] * dF.imag
+    e = SURFACE_LIFT * np.maximum(dist, SURFACE_LIFT_MIN * span)
+    off, end = pan.position(np.arange(pan.ta.size), np.r_[[pan.ta], [pan.tb]])
+    panel_ends = np.unique(end + off)
+    gap = np.min(np.abs(x[:, None] - panel_ends[None, :]), axis=1)
+    axis = gap >= SURFACE_AXIS_GAP * span
+    return principal_values(quad, x, np.where(axis, SURFACE_AXIS_LIFT * gap, e), axis)
 
 
 def _field(F: np.ndarray, dF: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, ...]:
