@@ -291,45 +291,58 @@ def accuracy_table(levels: list[int], tensor_levels: list[int], max_gb: float,
     for layout in ("rings", "tensor"):
         print(growth_text(layout, done))
     print(target_text(done))
-    ref, best = ratio_pair(done)
-    if best is not None and pairs > 0:
-        print(repeated_ratio_text(repeated_ratios(ref, best, pairs, max_gb)))
+    compared = {id(best): (ref, best) for ref, best in (ratio_pair(done, bar) for bar in
+                                                        (None, ISSUE_L3_ACCURACY)) if best}
+    for ref, best in compared.values() if pairs > 0 else ():
+        print(f"ring level {best['level']}, growth {best['growth']:g}: "
+              + repeated_ratio_text(repeated_ratios(ref, best, pairs, max_gb)))
 
 
 def target_text(rows: list[dict]) -> str:
     """The cheapest ring run at least as accurate (edge and stick) as the finest tensor run,
     with its history-time and peak-memory ratios (issue 28 target: >= 5x and >= 4x at level 3),
     and the cheapest ring run at level-4 accuracy against the tensor level 4 of the issue."""
-    return "\n".join((tensor_ratio_text(rows), level4_text(rows)))
+    return "\n".join((tensor_ratio_text(rows), tensor_ratio_text(rows, ISSUE_L3_ACCURACY),
+                      level4_text(rows)))
 
 
-def ratio_pair(rows: list[dict]) -> tuple[dict | None, dict | None]:
-    """(finest tensor run, cheapest ring run at least as accurate in edge and stick); None for
-    what is missing."""
+#: Issue 28's level-3 accuracy bar as the issue states it (edge, stick of the width: "today's
+#: level-3 accuracy", the tensor level 3 then); the finest tensor run of a bench run is read
+#: with today's wider edge bands and sets a stricter bar (0.0040 / 0.0070 %).
+ISSUE_L3_ACCURACY = (7e-5, 9e-5)
+
+
+def ratio_pair(rows: list[dict], bar: tuple[float, float] | None = None
+               ) -> tuple[dict | None, dict | None]:
+    """(finest tensor run, cheapest ring run at least as accurate in edge and stick as ``bar``,
+    by default the tensor run's own errors); None for what is missing."""
     tensor = [r for r in rows if r["layout"] == "tensor"]
     if not tensor:
         return None, None
     ref = max(tensor, key=lambda r: r["level"])
-    good = [r for r in rows if r["layout"] == "rings" and r["edge"] <= ref["edge"]
-            and r["stick"] <= ref["stick"]]
+    edge, stick = bar or (ref["edge"], ref["stick"])
+    good = [r for r in rows if r["layout"] == "rings" and r["edge"] <= edge
+            and r["stick"] <= stick]
     return ref, min(good, key=lambda r: r["history"]) if good else None
 
 
-def tensor_ratio_text(rows: list[dict]) -> str:
-    ref, best = ratio_pair(rows)
+def tensor_ratio_text(rows: list[dict], bar: tuple[float, float] | None = None) -> str:
+    ref, best = ratio_pair(rows, bar)
     if ref is None:
         return "no tensor run: no ratios"
+    edge, stick = bar or (ref["edge"], ref["stick"])
+    what = "issue 28's level-3 accuracy" if bar else f"tensor level {ref['level']} accuracy"
     if best is None:
-        return f"no ring run reaches tensor level {ref['level']}'s accuracy"
-    return (f"tensor level {ref['level']} accuracy (edge {100 * ref['edge']:.4f} %, stick "
-            f"{100 * ref['stick']:.4f} %) at ring level {best['level']}, growth "
+        return f"no ring run reaches {what} (edge {100 * edge:.4f} %, stick {100 * stick:.4f} %)"
+    return (f"{what} (edge {100 * edge:.4f} %, stick "
+            f"{100 * stick:.4f} %) at ring level {best['level']}, growth "
             f"{best['growth']:g}: "
             f"{ref['history'] / best['history']:.1f}x less history time, "
             f"{ref['peak'] / best['peak']:.1f}x less peak memory "
             f"({ref['fe_peak'] / best['fe_peak']:.1f}x in the FE history alone; "
             f"{ref['fe_memory'] / best['fe_memory']:.1f}x in the FE's own growth above the "
             f"process's {best['base']:.0f} MB of interpreter, libraries and analytic solution), "
-            f"{ref['dofs'] / best['dofs']:.1f}x fewer DOFs")
+            f"{ref['dofs'] / best['dofs']:.1f}x fewer DOFs, than the tensor level {ref['level']}")
 
 
 def repeated_ratios(ref: dict, best: dict, pairs: int, max_gb: float) -> list[tuple]:

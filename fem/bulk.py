@@ -214,12 +214,12 @@ def mode_gradients(scalar: Basis, sl: slice) -> tuple[np.ndarray, np.ndarray, np
     return G, w_ci, w_ci * det0[:, None] * W / scalar.dx[sl]
 
 
-def mode_matrices(scalar: Basis, sl: slice, lam: float, mu: float, grads: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """(K_ci (e, 8, 4), K_ii (e, 4, 4)) of the incompatible modes (:func:`mode_gradients`) of
-    the elements ``sl``, rows and columns ``2 a + i`` (standard) and ``2 m + i`` (modes);
-    ``grads``: the standard gradients (4, 2, e, q) of those elements."""
-    G, w_ci, w_ii = mode_gradients(scalar, sl)
+def mode_matrices(scalar: Basis, sl: slice, lam: float, mu: float, grads: np.ndarray,
+                  modes: tuple | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(K_ci (e, 8, 4), K_ii (e, 4, 4)) of the incompatible modes (:func:`mode_gradients`, or
+    ``modes`` if given) of the elements ``sl``, rows and columns ``2 a + i`` (standard) and
+    ``2 m + i`` (modes); ``grads``: the standard gradients (4, 2, e, q) of those elements."""
+    G, w_ci, w_ii = mode_gradients(scalar, sl) if modes is None else modes
     n = grads.shape[2]
     Kci = pair_stiffness(lam, mu, grads, G, w_ci).transpose(0, 1, 3, 2, 4).reshape(n, 8, 4)
     Kii = pair_stiffness(lam, mu, G, G, w_ii).transpose(0, 1, 3, 2, 4).reshape(n, 4, 4)
@@ -247,10 +247,10 @@ def mode_recovery(scalar: Basis, E: float, nu: float) -> tuple[np.ndarray, np.nd
     T, G = np.empty((n_el, 4, 8)), np.empty((2, 2, n_el, grads.shape[3]))
     for e0 in range(0, n_el, ELEMENT_BLOCK):
         sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
-        Kci, Kii = mode_matrices(scalar, sl, lam, mu, grads[:, :, sl])
+        modes = mode_gradients(scalar, sl)
+        Kci, Kii = mode_matrices(scalar, sl, lam, mu, grads[:, :, sl], modes)
         T[sl] = -np.linalg.solve(Kii, Kci.transpose(0, 2, 1))
-        Gb, w_ci, _ = mode_gradients(scalar, sl)
-        G[:, :, sl] = Gb * (w_ci / scalar.dx[sl])
+        G[:, :, sl] = modes[0] * (modes[1] / scalar.dx[sl])
     return T, G
 
 
