@@ -143,6 +143,10 @@ def stiffness(mesh: MeshQuad, order: int, E: float, nu: float) -> tuple[Basis, s
 
 #: Elements per block of the vectorised element kernel (memory ~ 8 (2 n_loc)^2 bytes each).
 ELEMENT_BLOCK = 20000
+#: Elements per block with incompatible modes: their condensation's temporaries are about 3 kB an
+#: element (a whole block of 20000: +117 MB above the assembly's own arrays at cattaneo ring
+#: level 3; issue 28's memory).
+MODES_BLOCK = 4096
 
 
 def elasticity_matrix(scalar: Basis, E: float, nu: float, incompatible: bool = False
@@ -166,8 +170,9 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float, incompatible: bool = F
     itype = np.int32 if max(n, n_el * per_el) < np.iinfo(np.int32).max else np.int64
     data = np.empty(n_el * per_el)  # 32-bit indices where they fit: the COO keeps them as they are
     r, c = np.empty(n_el * per_el, dtype=itype), np.empty(n_el * per_el, dtype=itype)
-    for e0 in range(0, n_el, ELEMENT_BLOCK):
-        sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
+    block = MODES_BLOCK if incompatible else ELEMENT_BLOCK
+    for e0 in range(0, n_el, block):
+        sl = slice(e0, min(e0 + block, n_el))
         g = grads[:, :, sl]
         D = np.einsum("akeq,bleq,eq->eabkl", g, g, scalar.dx[sl], optimize=True)
         trace = D[..., 0, 0] + D[..., 1, 1]
@@ -245,8 +250,8 @@ def mode_recovery(scalar: Basis, E: float, nu: float) -> tuple[np.ndarray, np.nd
     grads = np.array([phi[0].grad for phi in scalar.basis])
     n_el = grads.shape[2]
     T, G = np.empty((n_el, 4, 8)), np.empty((2, 2, n_el, grads.shape[3]))
-    for e0 in range(0, n_el, ELEMENT_BLOCK):
-        sl = slice(e0, min(e0 + ELEMENT_BLOCK, n_el))
+    for e0 in range(0, n_el, MODES_BLOCK):
+        sl = slice(e0, min(e0 + MODES_BLOCK, n_el))
         modes = mode_gradients(scalar, sl)
         Kci, Kii = mode_matrices(scalar, sl, lam, mu, grads[:, :, sl], modes)
         T[sl] = -np.linalg.solve(Kii, Kci.transpose(0, 2, 1))

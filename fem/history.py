@@ -134,10 +134,11 @@ class Model:
 
     disc: the discretisation without its stiffness matrices (:func:`build_model` drops them
     once factorised, issue 28); reaction_rows: body 1's stiffness rows of its top dofs
-    (``disc.fixed[0]``), all the recovery reads of it (the plate reactions ``K1 u1``)."""
+    (``disc.fixed[0]``), all the recovery reads of it (the plate reactions ``K1 u1``); factor:
+    the bulk factor, None once the fields are recovered (:func:`without_factor`)."""
 
     disc: Discretisation
-    factor: Factor
+    factor: Factor | None
     free: np.ndarray
     f1: np.ndarray
     f2: np.ndarray
@@ -431,18 +432,25 @@ def without_compliance(model: Model) -> Model:
     return replace(model, prob=replace(model.prob, C=None))
 
 
-def recover_steps(model: Model, schedule, states, P0: float, mu: float, timings: dict):
-    """Full fields of all increments and their result steps, ``(fields, steps)`` (timed as
-    'recovery')."""
+def without_factor(model: Model) -> Model:
+    """The model without the bulk factor, which nothing reads once the fields are recovered
+    (cattaneo ring level 3: 50 MB held beside the fields while the steps were built; issue 28)."""
+    return replace(model, factor=None)
+
+
+def recover_fields(model: Model, states):
+    """Full fields of all increments (:class:`fem.fields.FieldRecovery`)."""
     from .fields import FieldRecovery
 
-    with timed(timings, "recovery"):
-        fields = FieldRecovery.from_states(model, states)
-        steps = tuple(
-            make_step(model, i, sched, st, fields, P0, mu)
-            for i, (sched, st) in enumerate(zip(schedule, states, strict=True))
-        )
-    return fields, steps
+    return FieldRecovery.from_states(model, states)
+
+
+def result_steps(model: Model, schedule, states, fields, P0: float, mu: float) -> tuple:
+    """The result step of every increment (:func:`make_step`)."""
+    return tuple(
+        make_step(model, i, sched, st, fields, P0, mu)
+        for i, (sched, st) in enumerate(zip(schedule, states, strict=True))
+    )
 
 
 def solve_history(
@@ -488,12 +496,15 @@ def solve_history(
         states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings)
         model = without_compliance(model)
         return_freed_memory()  # the compliance and the contact solver's matrices
-        fields, steps = recover_steps(model, schedule, states, P0, mu, timings)
+        with timed(timings, "recovery"):
+            fields = recover_fields(model, states)
+            model = without_factor(model)
+            steps = result_steps(model, schedule, states, fields, P0, mu)
     hist = FemHistory(
         steps=steps,
         n_dofs=model.disc.n_dofs,
         order=order,
-        backend=model.factor.backend,
+        backend=fields.backend,
         timings=timings,
         mu=mu,
         E=E,
