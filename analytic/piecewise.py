@@ -279,14 +279,12 @@ class Profile:
 # minima search
 # ---------------------------------------------------------------------------------------------
 def _piece_minima(prof: Profile, k: int, pc: Piece, theta: float) -> list[tuple]:
-    lo = pc.lo if np.isfinite(pc.lo) else far_point(prof, -1)
-    hi = pc.hi if np.isfinite(pc.hi) else far_point(prof, +1)
+    lo, hi = sample_span(prof, pc)
     if pc.flat and abs(theta) * (hi - lo) <= FLAT_TILT * prof.scale:
         if any(_continues_lower(prof, k, end, theta) for end in (0, -1)):
             return []  # a flat face on a union's flank (h0 lower beside it): no minimum
         return [(pc.lo, pc.hi, float(pc.h(np.array([pc.lo]))[0]))]
-    xs = np.linspace(lo, hi, 401)
-    f = pc.h(xs) - theta * xs
+    xs, f = piece_samples(pc, theta, lo, hi)
     out = []
     for i in np.flatnonzero((f[1:-1] <= f[:-2]) & (f[1:-1] <= f[2:])) + 1:
         xm = refine_minimum(pc, theta, xs[i - 1], xs[i + 1])
@@ -317,7 +315,47 @@ def far_point(prof: Profile, side: int) -> float:
     """A finite stand-in for the infinite end of a piece: 50 scales beyond the profile's centre."""
     finite = [v for p in prof.pieces for v in (p.lo, p.hi) if np.isfinite(v)]
     centre = 0.5 * (min(finite) + max(finite)) if finite else 0.0
-    return centre + side * 50.0 * prof.scale
+    return centre + side * FAR_SCALES * prof.scale
+
+
+#: How far (in scales) the stand-in of an infinite end lies beyond the profile's centre, and at
+#: least beyond the piece's finite end.
+FAR_SCALES = 50.0
+#: Samples of a piece in the minima search.
+PIECE_SAMPLES = 401
+#: Doublings of an infinite piece's sampled span at most, while ``h0 - theta x`` still falls at
+#: its far end (2^60 spans: beyond any profile the solver accepts).
+MAX_DOUBLINGS = 60
+
+
+def piece_samples(pc: Piece, theta: float, lo: float, hi: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """``(xs, h0(xs) - theta xs)`` on PIECE_SAMPLES points from lo to hi, the span doubled
+    outwards at an infinite end of the piece while the values still fall there: a union member
+    whose lowest point lies beyond the profile's far stand-in (a cylinder 53 scales from a narrow
+    punch: its minimum, 0.25 below the punch, was missed)."""
+    for _ in range(MAX_DOUBLINGS):
+        xs = np.linspace(lo, hi, PIECE_SAMPLES)
+        f = pc.h(xs) - theta * xs
+        if not np.isfinite(pc.lo) and f[0] < f[1]:
+            lo = hi - 2.0 * (hi - lo)
+        elif not np.isfinite(pc.hi) and f[-1] < f[-2]:
+            hi = lo + 2.0 * (hi - lo)
+        else:
+            break
+    return xs, f
+
+
+def sample_span(prof: Profile, pc: Piece) -> tuple[float, float]:
+    """Finite ends of a piece for sampling it: its own, or for an infinite end the profile's
+    :func:`far_point`, but at least FAR_SCALES scales beyond the piece's finite end (a profile
+    wider than 100 scales, e.g. a union whose cylinders cross 10 widths away, put the far point
+    of its last piece behind the piece's start, and the piece's function sampled outside the
+    piece gave a minimum that is none)."""
+    reach = FAR_SCALES * prof.scale
+    lo = pc.lo if np.isfinite(pc.lo) else min(far_point(prof, -1), pc.hi - reach)
+    hi = pc.hi if np.isfinite(pc.hi) else max(far_point(prof, +1), pc.lo + reach)
+    return lo, hi
 
 
 def refine_minimum(pc: Piece, theta: float, a: float, b: float) -> float:
@@ -346,8 +384,10 @@ def _end_is_low(prof: Profile, k: int, end: int, theta: float) -> bool:
 
 def _continues_lower(prof: Profile, k: int, end: int, theta: float) -> bool:
     """Whether ``h0 - theta x`` goes lower beyond the end ``end`` (0: lo, -1: hi) of piece k:
-    a touching neighbour at the same height there whose tilted slope falls going away from the
-    joint (no neighbour: ``h0 = +inf`` beyond; a step up: a sharp corner)."""
+    a touching neighbour lower there (a step down: a union member's face below this piece's
+    end, e.g. a lifted flat punch inside a cylinder's flank), or at the same height with a
+    tilted slope that falls going away from the joint (no neighbour: ``h0 = +inf`` beyond; a
+    step up: a sharp corner)."""
     pc = prof.pieces[k]
     x_end = pc.lo if end == 0 else pc.hi
     j = k - 1 if end == 0 else k + 1
@@ -358,8 +398,11 @@ def _continues_lower(prof: Profile, k: int, end: int, theta: float) -> bool:
         return False
     at = np.array([x_end])
     own, other = float(pc.h(at)[0]), float(nb.h(at)[0])
-    if other > own + 1e-12 * max(prof.scale, abs(own)):
+    step = 1e-12 * max(prof.scale, abs(own))
+    if other > own + step:
         return False  # a step up (a sharp corner beside a lower piece)
+    if other < own - step:
+        return True  # a step down: lower beyond the joint
     with np.errstate(invalid="ignore", divide="ignore"):  # an arc's vertical end: nan, kept
         outward = float(nb.dh(at)[0]) - theta  # slope of h0 - theta x, neighbour, at the joint
     return outward > 0 if end == 0 else outward < 0

@@ -18,7 +18,15 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import brentq
 
 from analytic import _validate as check
-from analytic.piecewise import INF, Func, Piece, Profile, far_point, refine_minimum
+from analytic.piecewise import (
+    INF,
+    Func,
+    Piece,
+    Profile,
+    piece_samples,
+    refine_minimum,
+    sample_span,
+)
 
 __all__ = ["Piece", "Profile", "biquadratic", "cylinder", "double_wedge", "flat_punch",
            "tabulated", "union", "wedge"]
@@ -299,10 +307,7 @@ def _normalise(pieces: tuple[Piece, ...]) -> tuple[Piece, ...]:
 def _all_minima(prof: Profile) -> list[tuple]:
     out = []
     for k, pc in enumerate(prof.pieces):
-        lo = pc.lo if np.isfinite(pc.lo) else far_point(prof, -1)
-        hi = pc.hi if np.isfinite(pc.hi) else far_point(prof, +1)
-        xs = np.linspace(lo, hi, 401)
-        f = pc.h(xs)
+        xs, f = piece_samples(pc, 0.0, *sample_span(prof, pc))
         i = int(np.argmin(f))
         xm = refine_minimum(pc, 0.0, xs[max(i - 1, 0)], xs[min(i + 1, xs.size - 1)])
         out.append((xm, xm, float(min(f.min(), pc.h(np.array([xm]))[0]))))
