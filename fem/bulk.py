@@ -162,7 +162,6 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float, incompatible: bool = F
     grads = np.array([phi[0].grad for phi in scalar.basis])  # (n_loc, 2, n_el, n_qp)
     dofs = scalar.element_dofs  # (n_loc, n_el)
     n_loc, n_el = dofs.shape
-    eye = np.eye(2)
     per_el = (2 * n_loc) ** 2
     # the triplets go straight into arrays of their final size: no list of per-block arrays
     # and no concatenated copy (the blocks' arrays, freed at once, leave no heap behind)
@@ -174,11 +173,7 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float, incompatible: bool = F
     for e0 in range(0, n_el, block):
         sl = slice(e0, min(e0 + block, n_el))
         g = grads[:, :, sl]
-        D = np.einsum("akeq,bleq,eq->eabkl", g, g, scalar.dx[sl], optimize=True)
-        trace = D[..., 0, 0] + D[..., 1, 1]
-        Ke = (
-            lam * D + mu * D.transpose(0, 1, 2, 4, 3) + mu * trace[..., None, None] * eye
-        )  # (e, a, b, i, j)
+        Ke = pair_stiffness(lam, mu, g, g, scalar.dx[sl])  # (e, a, b, i, j)
         if incompatible:
             Ke = condensed(Ke, *mode_matrices(scalar, sl, lam, mu, g))
         vec = 2 * dofs[:, sl].T[:, :, None] + np.arange(2)  # (e, a, i)
@@ -186,7 +181,7 @@ def elasticity_matrix(scalar: Basis, E: float, nu: float, incompatible: bool = F
         data[out] = Ke.ravel()
         r[out] = np.broadcast_to(vec[:, :, None, :, None], Ke.shape).ravel()
         c[out] = np.broadcast_to(vec[:, None, :, None, :], Ke.shape).ravel()
-        del D, trace, Ke, vec
+        del Ke, vec
     del grads
     return compact(sp.coo_matrix((data, (r, c)), shape=(n, n)).tocsr())
 
@@ -195,7 +190,8 @@ def pair_stiffness(lam: float, mu: float, ga: np.ndarray, gb: np.ndarray, wt: np
                    ) -> np.ndarray:
     """``K[e, A, B, i, j] = int sigma(f_A e_i) : eps(f_B e_j) wt`` of two sets of scalar
     functions given by their gradients ``ga`` (nA, 2, e, q), ``gb`` (nB, 2, e, q) at the
-    quadrature points with weights ``wt`` (e, q): the formula of :func:`elasticity_matrix`."""
+    quadrature points with weights ``wt`` (e, q): :func:`elasticity_matrix`'s kernel (its
+    formula), also for the incompatible modes' blocks (:func:`mode_matrices`)."""
     D = np.einsum("akeq,bleq,eq->eabkl", ga, gb, wt, optimize=True)
     trace = D[..., 0, 0] + D[..., 1, 1]
     return lam * D + mu * D.transpose(0, 1, 2, 4, 3) + mu * trace[..., None, None] * np.eye(2)

@@ -127,7 +127,7 @@ class FieldRecovery:
             # the last one while the next is built), the largest (eps_xy) first: its
             # temporaries then sit beside the load operator alone
             modes = (mode_recovery(scalar, self.disc.E, self.disc.nu)
-                     if self.disc.incompatible and self.disc.order == 1 else None)
+                     if self.disc.incompatible else None)  # Q1 only (fem.bulk.discretise)
             for B in iter_strain_operators(scalar, XY_FIRST, modes):
                 ops.append((load @ B).tocsr())
                 del B
