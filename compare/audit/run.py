@@ -81,26 +81,40 @@ class _Timeout(Exception):
     pass
 
 
-def _alarm(signum, frame):  # noqa: ARG001
-    raise _Timeout
+class _Alarm:
+    """The CPU-time alarm's handler: raises :class:`_Timeout` and remembers that it fired.  An
+    exception raised while Python runs a garbage-collection callback or a destructor is
+    reported as unraisable and dropped (hypothesis installs such a callback in a test session),
+    and the case then runs on past its limit: the flag still says it timed out."""
+
+    def __init__(self) -> None:
+        self.fired = False
+
+    def __call__(self, signum, frame) -> None:  # noqa: ARG002
+        self.fired = True
+        raise _Timeout
 
 
 def audit_seed(seed: int, n_bem: int = checks.BEM_N,
                time_limit: float = CASE_TIME_LIMIT) -> CaseResult:
     """:func:`audit_case` of ``make_case(seed)`` under a CPU-time limit (main thread only)."""
     case = make_case(seed)
-    old = signal.signal(signal.SIGPROF, _alarm)
+    alarm = _Alarm()
+    old = signal.signal(signal.SIGPROF, alarm)
     signal.setitimer(signal.ITIMER_PROF, time_limit)
     start, cpu = time.perf_counter(), time.process_time()
     try:
-        return audit_case(case, n_bem)
+        result = audit_case(case, n_bem)
     except _Timeout:
-        used = time.process_time() - cpu
-        return _result(case, [checks.Finding("timeout", used, time_limit, "CPU seconds")],
-                       (time.perf_counter() - start, used), 0.0)
+        result = None
     finally:
         signal.setitimer(signal.ITIMER_PROF, 0.0)
         signal.signal(signal.SIGPROF, old)
+    if not alarm.fired:
+        return result
+    used = time.process_time() - cpu
+    return _result(case, [checks.Finding("timeout", used, time_limit, "CPU seconds")],
+                   (time.perf_counter() - start, used), 0.0)
 
 
 def audit_case(case: AuditCase, n_bem: int = checks.BEM_N) -> CaseResult:
