@@ -84,8 +84,8 @@ class StressRow:
 # ---------------------------------------------------------------------------------------------
 def body2_xy(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray]:
     """``(x, y)`` of body 2's stress nodes (no assembly: for callers that need no weights)."""
-    sb = hist.fields.disc.scalar_bases[1]
-    return sb.doflocs[0], sb.doflocs[1]
+    xy = hist.fields.disc.scalar_bases.doflocs(1)
+    return xy[0], xy[1]
 
 
 def body2_nodes(hist: fem.FemHistory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -9,7 +9,7 @@ for Q1, Simpson weights 1/6, 4/6, 1/6 for Q2).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -76,7 +76,8 @@ def vector_facet_dofs(scalar: Basis, vec: VectorDofs, facets: np.ndarray) -> np.
 
 
 class ScalarBases(Sequence):
-    """The bodies' scalar skfem bases, each built on first use and then kept.  The history
+    """The bodies' scalar skfem bases, each built on first use and then kept until released
+    (:meth:`release`; its dof coordinates are kept, :meth:`doflocs`).  The history
     (factorisation, increments, displacement recovery) needs none of their quadrature data, so
     :func:`discretise` does not keep the ones it assembled with (they would sit beside the
     factors: about 0.5 GB at cattaneo ring level 6, issue 28); the stress projection, the
@@ -86,6 +87,7 @@ class ScalarBases(Sequence):
     def __init__(self, meshes, order: int):
         self.meshes, self.order = tuple(meshes), order
         self._built = [None] * len(self.meshes)
+        self._doflocs = [None] * len(self.meshes)
 
     def __len__(self) -> int:
         return len(self.meshes)
@@ -93,7 +95,22 @@ class ScalarBases(Sequence):
     def __getitem__(self, body: int) -> Basis:
         if self._built[body] is None:
             self._built[body] = Basis(self.meshes[body], ELEMENTS[self.order]())
+            self._doflocs[body] = self._built[body].doflocs
         return self._built[body]
+
+    def doflocs(self, body: int) -> np.ndarray:
+        """(2, N) coordinates of a body's scalar dofs (the basis's, kept when it is released:
+        no quadrature data is built again for them)."""
+        if self._doflocs[body] is None:
+            self[body]
+        return self._doflocs[body]
+
+    def release(self, body: int) -> None:
+        """Drop a body's basis and its mesh's cached mapping (built again when next asked
+        for): a caller done with its quadrature data frees them (issue 28: the stress
+        projection, whose solve they had sat beside, 30 MB at cattaneo ring level 3)."""
+        self._built[body] = None
+        drop_mapping_cache(self.meshes[body])
 
 
 @dataclass(frozen=True)
@@ -241,18 +258,25 @@ def mode_recovery(scalar: Basis, E: float, nu: float) -> tuple[np.ndarray, np.nd
     """(T, G): the incompatible modes' amplitudes ``alpha = T u_e`` (T = -K_ii^-1 K_ic, (e, 4,
     8), the condensed equations of the element) and their strain gradients G (2, 2, e, q)
     already scaled by ``det J0 / det J``: the strain of mode (m, i) at a quadrature point is
-    ``sym(G_m e_i) alpha_(m, i)``."""
+    ``sym(G_m e_i) alpha_(m, i)`` (by blocks of MODES_BLOCK elements, :func:`mode_block`)."""
     lam, mu = lame_parameters(E, nu)
-    grads = np.array([phi[0].grad for phi in scalar.basis])
-    n_el = grads.shape[2]
-    T, G = np.empty((n_el, 4, 8)), np.empty((2, 2, n_el, grads.shape[3]))
+    grads = [np.asarray(phi[0].grad) for phi in scalar.basis]  # views (2, e, q)
+    n_el, n_qp = scalar.dx.shape
+    T, G = np.empty((n_el, 4, 8)), np.empty((2, 2, n_el, n_qp))
     for e0 in range(0, n_el, MODES_BLOCK):
         sl = slice(e0, min(e0 + MODES_BLOCK, n_el))
-        modes = mode_gradients(scalar, sl)
-        Kci, Kii = mode_matrices(scalar, sl, lam, mu, grads[:, :, sl], modes)
-        T[sl] = -np.linalg.solve(Kii, Kci.transpose(0, 2, 1))
-        G[:, :, sl] = modes[0] * (modes[1] / scalar.dx[sl])
+        T[sl], G[:, :, sl] = mode_block(scalar, sl, lam, mu, grads)
     return T, G
+
+
+def mode_block(scalar: Basis, sl: slice, lam: float, mu: float, grads: list
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`mode_recovery`'s (T, G) of the elements ``sl`` (``grads``: the standard
+    gradients, per local node (2, e, q), of all elements; Lame parameters lam, mu)."""
+    modes = mode_gradients(scalar, sl)
+    block = np.array([g[:, sl] for g in grads])  # one block's copy, not all elements'
+    Kci, Kii = mode_matrices(scalar, sl, lam, mu, block, modes)
+    return -np.linalg.solve(Kii, Kci.transpose(0, 2, 1)), modes[0] * (modes[1] / scalar.dx[sl])
 
 
 def compact(A: sp.csr_matrix) -> sp.csr_matrix:
@@ -389,7 +413,44 @@ def reduced_bodies(disc: Discretisation, free: np.ndarray) -> list[sp.csc_matrix
     return blocks
 
 
+@dataclass(frozen=True, eq=False)
+class BulkBlocks:
+    """What a load history reads of the stiffness matrices, cut from them so that they can go
+    before the factorisation (issue 28: at cattaneo ring level 3 they were 17 MB of the
+    history's peak, held beside the factor up to the far-field lift).
+
+    free, index: :func:`free_dofs`.  bodies: each body's stiffness on its own free dofs
+    (:func:`reduced_bodies`), a list that ``fem.condense.condense_bodies`` empties as it
+    hands the matrices to the factorisation.  coupling: per body ``K_b[free_b][:, fixed_b]``
+    (CSR, its rows the body's free dofs in order): the loads of prescribed displacements of
+    the fixed dofs (the far-field lift).  reaction_rows: ``K_1[fixed_1]``, body 1's rows of
+    its top dofs (the plate reactions)."""
+
+    free: np.ndarray
+    index: np.ndarray
+    bodies: list
+    coupling: tuple
+    reaction_rows: sp.csr_matrix
+
+
+def split_stiffness(disc: Discretisation) -> tuple[BulkBlocks, Discretisation]:
+    """``(blocks, disc without its stiffness matrices)``: a caller that rebinds its ``disc``
+    to the second frees the matrices (the blocks are copies)."""
+    free, index = free_dofs(disc)
+    n1 = disc.bases[0].N
+    coupling = []
+    for K, lo, hi, fixed in ((disc.stiffness[0], 0, n1, disc.fixed[0]),
+                             (disc.stiffness[1], n1, disc.n_dofs, disc.fixed[1])):
+        local = free[(free >= lo) & (free < hi)] - lo
+        coupling.append(K[:, fixed][local])
+    blocks = BulkBlocks(free=free, index=index, bodies=reduced_bodies(disc, free),
+                        coupling=tuple(coupling),
+                        reaction_rows=disc.stiffness[0][disc.fixed[0]])
+    return blocks, replace(disc, stiffness=None)
+
+
 __all__ = [
+    "BulkBlocks",
     "Discretisation",
     "Interface",
     "ScalarBases",
@@ -399,6 +460,7 @@ __all__ = [
     "mass_matrix",
     "reduced_bodies",
     "reduced_stiffness",
+    "split_stiffness",
     "stiffness",
     "plane_strain_elasticity",
 ]

@@ -26,8 +26,9 @@ the per-body factor orders last, so the forward solve ``L y = [0; f]`` is ``y = 
 (a dense triangular solve with the kept trailing block) and the displacement needs only the
 backward sweep ``L^T x = y`` through the sparse factor: half the work of a general solve, one
 dense triangular solve for all increments at once, the sweeps by blocks of increments
-(multi-RHS, ``RECOVERY_BLOCK``).  ``L22`` is kept packed (``2n (2n + 1) / 2`` numbers per
-body).
+(multi-RHS, ``RECOVERY_BLOCK``).  ``L22`` is read from the factor in place a panel at a time
+(a packed copy, ``2n (2n + 1) / 2`` numbers per body, is kept only for a factor
+``fem.supernodal`` cannot read).
 
 Ordering of pair quantities: ``[t_0 .. t_{n-1}, n_0 .. n_{n-1}]`` (tangential x
 components first, then normal y components).
@@ -35,19 +36,22 @@ components first, then normal y components).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import solve_triangular
 from scipy.linalg.blas import dsyrk, dtrmm
-from scipy.linalg.lapack import dlauum, dpotri, dtpttr, dtrtri, dtrttp
+from scipy.linalg.lapack import dlauum, dpotri, dtrtri, dtrttp
 from scipy.sparse.csgraph import connected_components
 
-from .bulk import Discretisation, reduced_bodies, reduced_stiffness
+from ._heap import return_freed_memory
+from .bulk import Discretisation
 from .errors import ConvergenceError
 from .linsolve import Factor, available_backends, factorize
-from .supernodal import trailing_block
+from .supernodal import trailing_block, trailing_panel
 
 #: Right-hand sides per blocked solve (memory vs BLAS-3 efficiency).
 RHS_BLOCK = 256
@@ -64,8 +68,15 @@ RHS_BLOCK = 256
 #: blocks of 4, 8, 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6, 41 not;
 #: tests/unit/test_fem_condense.py).  At level 6 a sweep's cost is proportional to its
 #: columns, so wider blocks buy little: CPU ms per column of one sweep of body 1 (1.35M dofs,
-#: two runs) 72-74 / 60-61 / 58 / 50-56 / 60-62 with 8 / 16 / 32 / 48 / 84 columns; 16 stays.
-RECOVERY_BLOCK = 16
+#: two runs) 72-74 / 60-61 / 58 / 50-56 / 60-62 with 8 / 16 / 32 / 48 / 84 columns.  8, for
+#: memory: at cattaneo ring level 3 (growth 1.35) the sweep's two arrays of 16 columns, 10 MB,
+#: set the history's peak (process peak RSS 218-223 MB, 203-210 MB with 8, four runs each);
+#: the sweeps cost about 20 % more CPU (level 3 recovery 0.22 -> 0.27 s, level 6 ~1 s of 43).
+RECOVERY_BLOCK = 8
+#: Columns of a body's trailing factor block L22 unpacked at a time by the recovery's
+#: triangular solve (:func:`trailing_solve`): a panel of (m x TRIANGLE_PANEL) numbers, not
+#: the whole m x m triangle; wide enough for BLAS-3 speed.
+TRIANGLE_PANEL = 256
 #: Fill-reducing ordering of a body's inner dofs (its pair dofs then go last), of their node
 #: graph (:func:`body_order`).  CHOLMOD's orderings on the node graph, cattaneo rings body 1,
 #: CPU s of the ordering (Python and CHOLMOD's analysis) + numeric factorisation, two runs each
@@ -135,26 +146,28 @@ def condense(
     return with_pair_loads(factor, f1, f2), compliance(factor, f1, f2)
 
 
-def condense_bodies(disc: Discretisation, free: np.ndarray, f1: np.ndarray, f2: np.ndarray,
-                    backend: str = "auto") -> tuple[Factor, np.ndarray]:
-    """``condense(reduced_stiffness(disc, free), f1, f2, backend)``, the same numbers, without
-    the whole K when CHOLMOD takes the bodies one by one: each body's stiffness restricted to
-    its free dofs directly (the blocks :func:`body_blocks` would cut from K when body 1 is one
-    connected block; issue 28: at level 6 the block-diagonal K and a second round of index
-    copies had cost about 15 s and a K-sized copy beside the bodies')."""
+def condense_bodies(bodies: list, f1: np.ndarray, f2: np.ndarray, backend: str = "auto"
+                    ) -> tuple[Factor, np.ndarray]:
+    """``condense(K, f1, f2, backend)`` of the block-diagonal K of ``bodies`` (each body's
+    stiffness on its own free dofs, body 1's first: ``fem.bulk.reduced_bodies``), the same
+    numbers, without the whole K when CHOLMOD takes the bodies one by one (issue 28: at level
+    6 the block-diagonal K and a second round of index copies had cost about 15 s and a
+    K-sized copy beside the bodies').  ``bodies`` is emptied: the factorisation owns the
+    matrices and drops each once it is factorised."""
     if backend == "auto":
         backend = available_backends()[0]
-    if backend == "cholmod":
-        K1, K2 = reduced_bodies(disc, free)
-        n1 = K1.shape[0]
-        if (f1.max() < n1 <= f2.min()
-                and connected_components(K1, directed=False, return_labels=False) == 1):
-            idx1, idx2 = np.arange(n1), np.arange(n1, n1 + K2.shape[0])
-            bodies = [(K1, idx1, f1), (K2, idx2, f2 - n1)]
-            del K1, K2
-            return schur_cholmod(bodies, n1 + idx2.size)
+    K1, K2 = bodies
+    bodies.clear()
+    n1 = K1.shape[0]
+    if (backend == "cholmod" and f1.max() < n1 <= f2.min()
+            and connected_components(K1, directed=False, return_labels=False) == 1):
+        idx1, idx2 = np.arange(n1), np.arange(n1, n1 + K2.shape[0])
+        parts = [(K1, idx1, f1), (K2, idx2, f2 - n1)]
         del K1, K2
-    return condense(reduced_stiffness(disc, free), f1, f2, backend)
+        return schur_cholmod(parts, n1 + idx2.size)
+    K = sp.block_diag((K1, K2), format="csc")
+    del K1, K2
+    return condense(K, f1, f2, backend)
 
 
 def with_pair_loads(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> Factor:
@@ -227,10 +240,11 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
             continue
         perm = body_order(Kb, local)
         Kb = Kb[perm][:, perm].tocsc()  # the permuted copy replaces the body's own (issue 28)
+        return_freed_memory()  # the body's own and the ordering's temporaries
         chol = natural_cholesky(Kb)
         del Kb
         Cb, packed = trailing_compliance(chol, idx.size, local.size, split if b == 0 else None)
-        parts.append((idx, perm, chol, packed, None))
+        parts.append((idx, perm, chol, panel_reader(chol, idx.size, local.size, packed), None))
         C = Cb if C is None else np.add(C, Cb, out=C)
         del Cb
     mirror_lower(C)
@@ -242,10 +256,11 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
                    rows: np.ndarray | None = None) -> np.ndarray:
         lam = np.atleast_2d(np.asarray(lam, dtype=float).T).T
         out, rows = pair_target(n, lam, out, rows)
-        for (idx, perm, chol, packed, signs), sign in zip(parts, (1.0, -1.0), strict=True):
+        for (idx, perm, chol, panels, signs), sign in zip(parts, (1.0, -1.0), strict=True):
             d = None if signs is None else signs[perm][:, None]  # a mirror: K_2^-1 = D K_1^-1 D
-            z = trailing_solve(packed, sign * lam if d is None else sign * d[-lam.shape[0]:] * lam)
+            z = trailing_solve(panels, sign * lam if d is None else sign * d[-lam.shape[0]:] * lam)
             target = rows[idx[perm]]
+            return_freed_memory()  # the last body's sweeps' arrays, beneath this one's
             for cols in column_blocks(lam.shape[1], RECOVERY_BLOCK):
                 x = backward_solve(chol, z[:, cols], idx.size)
                 if d is not None:
@@ -288,14 +303,53 @@ def column_blocks(k: int, width: int) -> list[slice]:
     return [slice(j, min(j + width, k)) for j in range(0, k, width)]
 
 
-def trailing_solve(packed: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """``L22^{-1} f`` for loads f (columns) on a body's m trailing dofs, ``L22`` (m x m) unpacked
-    from ``packed`` for the one dense triangular solve of all columns and dropped at once."""
+def trailing_solve(panels: Callable[[int, int], np.ndarray], f: np.ndarray) -> np.ndarray:
+    """``L22^{-1} f`` for loads f (columns) on a body's m trailing dofs, ``L22`` (m x m lower
+    triangular) read one panel of TRIANGLE_PANEL columns at a time (``panels(c0, c1)``: rows
+    c0.. of columns c0..c1-1, :func:`panel_reader`): the panel's diagonal block solved, the
+    rows below updated (a right-looking forward substitution, dtrsm's own scheme with
+    another blocking).  No m x m copy (issue 28: 9.8 MB beside the recovered fields at
+    cattaneo ring level 3, 0.6 GB at level 6); the numbers are dtrsm's on the whole L22 to
+    rounding."""
     m = f.shape[0]
-    L22, info = dtpttr(m, packed, uplo="L")
-    if info != 0:
-        raise ConvergenceError(f"recovery: LAPACK tpttr failed (info={info})")
-    return solve_triangular(L22, f, lower=True, check_finite=False)
+    z = np.array(f, dtype=float, order="F")
+    for c0 in range(0, m, TRIANGLE_PANEL):
+        c1 = min(c0 + TRIANGLE_PANEL, m)
+        panel = panels(c0, c1)
+        z[c0:c1] = solve_triangular(panel[:c1 - c0], z[c0:c1], lower=True, check_finite=False)
+        if c1 < m:
+            z[c1:] -= panel[c1 - c0:] @ z[c0:c1]
+    return z
+
+
+def panel_reader(chol, n: int, m: int, packed: np.ndarray | None
+                 ) -> Callable[[int, int], np.ndarray]:
+    """The panels of a body's L22 for :func:`trailing_solve`: read in place from its factor
+    ``chol`` (n x n, m pair dofs last; ``fem.supernodal.trailing_panel``), or from ``packed``
+    (LAPACK's packed lower storage, :func:`packed_panel`) for a factor that module cannot
+    read (:func:`trailing_compliance` keeps a copy only then)."""
+    if packed is not None:
+        return partial(packed_panel, packed, m)
+
+    def read(c0: int, c1: int) -> np.ndarray:
+        panel = trailing_panel(chol, n, m, c0, c1)
+        if panel is None:
+            raise ConvergenceError("recovery: the factor's trailing block, read in place when "
+                                   "the compliance was formed, can no longer be read")
+        return panel
+
+    return read
+
+
+def packed_panel(packed: np.ndarray, m: int, c0: int, c1: int) -> np.ndarray:
+    """Rows c0..m-1 of columns c0..c1-1 of the lower triangular m x m matrix stored in
+    ``packed`` (LAPACK's packed lower storage: column j's entries j..m-1 after those of the
+    columns before it, from ``j m - j (j - 1) / 2``), zeros above the diagonal, Fortran order."""
+    panel = np.zeros((m - c0, c1 - c0), order="F")
+    for j in range(c0, c1):
+        start = j * m - j * (j - 1) // 2
+        panel[j - c0:, j - c0] = packed[start:start + m - j]
+    return panel
 
 
 def backward_solve(chol, z: np.ndarray, n: int) -> np.ndarray:
@@ -429,22 +483,23 @@ def natural_cholesky(Kp: sp.csc_matrix):
 
 
 def trailing_compliance(chol, n: int, m: int, split: int | None = None
-                        ) -> tuple[np.ndarray, np.ndarray]:
+                        ) -> tuple[np.ndarray, np.ndarray | None]:
     """``(C_b, packed)`` from a body's factor (n x n) with its m pair dofs last: ``C_b =
     (Kb^{-1})[gamma][:, gamma] = S^{-1}`` from the trailing factor block ``L22``
-    (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri, and ``L22`` itself
-    packed (lower, LAPACK ``trttp``) for the recovery's backward solves.  With ``split``
+    (``S = L22 L22^T``, the Schur complement on gamma) by LAPACK potri.  With ``split``
     (:func:`sign_split` of a mirror body's signs) ``C_b + D C_b D`` instead, by
     :func:`mirror_compliance`.  Lower triangles only.  ``L22`` is read in place from the
-    supernodal factor (``fem.supernodal``); only a factor that module cannot read goes
-    through ``chol.L()``, a converted copy of the whole factor (level 6's peak memory before
-    issue 28)."""
-    L22 = trailing_block(chol, n, m)
+    supernodal factor (``fem.supernodal``), where the recovery reads it again panel by panel
+    (``packed`` None: no copy of it is kept, issue 28: 4.9 MB at cattaneo ring level 3, 0.3 GB
+    at level 6); only a factor that module cannot read goes through ``chol.L()``, a converted
+    copy of the whole factor (level 6's peak memory before issue 28), and ``packed`` is then
+    ``L22`` packed (lower, LAPACK ``trttp``) for the recovery."""
+    L22, packed = trailing_block(chol, n, m), None
     if L22 is None:
         L22 = np.asfortranarray(chol.L()[-m:, -m:].toarray())
-    packed, info = dtrttp(L22, uplo="L")
-    if info != 0:
-        raise ConvergenceError(f"compliance of a body: LAPACK trttp failed (info={info})")
+        packed, info = dtrttp(L22, uplo="L")
+        if info != 0:
+            raise ConvergenceError(f"compliance of a body: LAPACK trttp failed (info={info})")
     if split is not None:
         return mirror_compliance(L22, split), packed
     Cb, info = dpotri(L22, lower=1, overwrite_c=1)

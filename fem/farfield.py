@@ -34,6 +34,9 @@ import numpy as np
 
 #: Multipole orders kept (0: resultant, 1: first moments, 2: second moments).
 ORDERS = 3
+#: Rows per block of :meth:`FarField.add_displacement` (a block's product is rows x load
+#: cases numbers).
+FAR_ROWS = 8192
 
 
 def log_lower(z: np.ndarray) -> np.ndarray:
@@ -135,28 +138,34 @@ class FarField:
         """Full-field far-field displacement for pair forces lam (columns: load cases)."""
         return self.fields @ (self.R @ lam)
 
+    def add_displacement(self, out: np.ndarray, lam: np.ndarray) -> None:
+        """``out += self.displacement(lam)`` by blocks of FAR_ROWS rows: no second
+        full-field array beside ``out`` (issue 28: 10 MB at cattaneo ring level 3)."""
+        moments = self.R @ lam
+        for r0 in range(0, out.shape[0], FAR_ROWS):
+            rows = slice(r0, min(r0 + FAR_ROWS, out.shape[0]))
+            out[rows] += self.fields[rows] @ moments
 
-def coupling_loads(disc, free: np.ndarray, G: np.ndarray) -> np.ndarray:
+
+def coupling_loads(coupling: tuple, G: np.ndarray) -> np.ndarray:
     """``K[free][:, fixed] @ G`` of the block-diagonal K of both bodies (``fixed`` body 1's
-    prescribed dofs then body 2's, G's rows in that order), body by body: the bodies are
-    uncoupled, and the whole K is not formed (issue 28)."""
-    n1, k1 = disc.bases[0].N, disc.fixed[0].size
-    parts = []
-    for K, lo, hi, fixed, g in ((disc.stiffness[0], 0, n1, disc.fixed[0], G[:k1]),
-                                (disc.stiffness[1], n1, disc.n_dofs, disc.fixed[1], G[k1:])):
-        local = free[(free >= lo) & (free < hi)] - lo
-        parts.append((K[:, fixed] @ g)[local])  # K[local] would copy the body's stiffness
-    return np.concatenate(parts)
+    prescribed dofs then body 2's, G's rows in that order), body by body from ``coupling``
+    (``fem.bulk.BulkBlocks.coupling``: each body's ``K_b[free_b][:, fixed_b]``): the bodies
+    are uncoupled, and the whole K is not formed (issue 28)."""
+    k1 = coupling[0].shape[1]
+    return np.concatenate((coupling[0] @ G[:k1], coupling[1] @ G[k1:]))
 
 
-def lift(disc, factor, free: np.ndarray, x_pairs: np.ndarray) -> FarField:
+def lift(disc, coupling: tuple, factor, free: np.ndarray, x_pairs: np.ndarray) -> FarField:
     """Far-field fields of ``disc`` (boundary='half-plane'): the Flamant multipole data on
-    the prescribed dofs, lifted into the bodies with the bulk factor (2 ORDERS solves)."""
+    the prescribed dofs, lifted into the bodies with the bulk factor (2 ORDERS solves;
+    ``coupling``: :func:`coupling_loads`)."""
     xr = 0.5 * float(x_pairs.min() + x_pairs.max())
     dofs = tuple((b.doflocs[:, f], f % 2 == 0) for b, f in zip(disc.bases, disc.fixed, strict=True))
     fixed = np.r_[disc.fixed[0], disc.fixed[1] + disc.bases[0].N]
     G = boundary_fields(dofs, xr, disc.E, disc.nu)
     fields = np.zeros((disc.n_dofs, G.shape[1]))
     fields[fixed] = G
-    fields[free] = -factor.solve(coupling_loads(disc, free, G))
+    lifted = factor.solve(coupling_loads(coupling, G))
+    fields[free] = np.negative(lifted, out=lifted)
     return FarField(fields=fields, R=moment_matrix(x_pairs, xr), xr=xr)

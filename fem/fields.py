@@ -15,8 +15,9 @@ from collections.abc import Iterator, Sequence
 
 import numpy as np
 from scipy.sparse import csr_matrix
+from skfem.models.elasticity import lame_parameters
 
-from .bulk import compact, mass_matrix, mode_recovery, vector_dofs
+from .bulk import MODES_BLOCK, compact, mass_matrix, mode_block, vector_dofs
 from .condense import RECOVERY_BLOCK, column_blocks, pair_loads
 from .linsolve import factorize
 
@@ -71,7 +72,7 @@ class FieldRecovery:
         z = np.array([s.z for s in states]).T
         for c in column_blocks(z.shape[1], RECOVERY_BLOCK):
             if model.far is not None:
-                U[:, c] += model.far.displacement(lam[:, c])
+                model.far.add_displacement(U[:, c], lam[:, c])
             U1[0::2, c] += z[0][None, c] - loc[1, 0::2, None] * z[2][None, c]  # plate's rigid
             U1[1::2, c] += z[1][None, c] + loc[0, 1::2, None] * z[2][None, c]  # motion
         return cls(disc, U1, U2, model.factor.backend, model.reaction_rows)
@@ -121,19 +122,10 @@ class FieldRecovery:
         """Plane-strain stresses (sxx, syy, sxy, szz) of increments ``cols`` of one body, L2
         projected onto its scalar nodal basis: ``M s = int phi sigma(u) dx`` per component."""
         if body not in self._projector:  # one factorisation and one operator per body
-            scalar = self.disc.scalar_bases[body]
-            load, ops = load_operator(scalar), []
-            # one at a time (issue 28: level 5's peak; no zip, whose result tuple would hold
-            # the last one while the next is built), the largest (eps_xy) first: its
-            # temporaries then sit beside the load operator alone
-            modes = (mode_recovery(scalar, self.disc.E, self.disc.nu)
-                     if self.disc.incompatible else None)  # Q1 only (fem.bulk.discretise)
-            for B in iter_strain_operators(scalar, XY_FIRST, modes):
-                ops.append((load @ B).tocsr())
-                del B
-            del load
+            ops = projection_operators(self.disc, body, self.mass(body))
             self._projector[body] = (factorize(self.mass(body), self.backend),
                                      tuple(ops[XY_FIRST.index(c)] for c in range(3)))
+            self.disc.scalar_bases.release(body)  # the mass and the operators hold its data
         mass, (Rxx, Ryy, Rxy) = self._projector[body]
         E, nu = self.disc.E, self.disc.nu
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
@@ -151,6 +143,24 @@ class FieldRecovery:
         S = mass.solve(rhs)  # column c k + j: component c of increment j
         del rhs
         return [np.ascontiguousarray(S[:, j::k].T) for j in range(k)]
+
+
+def projection_operators(disc, body: int, mass: csr_matrix) -> list[csr_matrix]:
+    """The loads of the strains on one body's scalar nodal basis, ``load_operator @ B`` for
+    the strain operators B in XY_FIRST's order (``disc.incompatible``: Q1 elements with
+    incompatible modes, :func:`mode_projection_operators`, on the pattern of the body's
+    ``mass`` matrix)."""
+    scalar = disc.scalar_bases[body]
+    if disc.incompatible:  # Q1 only (fem.bulk.discretise)
+        return mode_projection_operators(scalar, XY_FIRST, disc.E, disc.nu, mass)
+    load, ops = load_operator(scalar), []
+    # one at a time (issue 28: level 5's peak; no zip, whose result tuple would hold the last
+    # one while the next is built), the largest (eps_xy) first: its temporaries then sit
+    # beside the load operator alone
+    for B in iter_strain_operators(scalar, XY_FIRST):
+        ops.append((load @ B).tocsr())
+        del B
+    return ops
 
 
 def strain_operators(scalar) -> tuple[csr_matrix, csr_matrix, csr_matrix]:
@@ -213,18 +223,83 @@ def mode_strain_operators(scalar, components: Sequence[int], modes) -> Iterator[
     grad = [np.asarray(phi[0].grad) for phi in scalar.basis]
     indptr = np.arange(0, n_el * n_qp * 8 + 1, 8, dtype=itype)
     for parts in (STRAIN_PARTS[c] for c in components):
-        g = np.zeros((n_el, n_qp, 8))
-        modal = np.zeros((n_el, n_qp, 4))  # the strain of mode (m, i) at column 2 m + i
-        for c, d, f in parts:
-            for a in range(4):
-                g[..., 2 * a + c] += f * grad[a][d]
-            for m in range(2):
-                modal[..., 2 * m + c] += f * G[m, d]
-        g += np.einsum("eqk,ekj->eqj", modal, T)
-        del modal
+        g = mode_strain_values(grad, parts, T, G)
         indices = np.ascontiguousarray(np.broadcast_to(dofs[:, None, :], g.shape)).ravel()
         yield csr_matrix((g.ravel(), indices, indptr), shape=(n_el * n_qp, vec.N))
         del g, indices
+
+
+def mode_strain_values(grad: list, parts, T: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """(e, q, 8): the strain ``parts`` (:data:`STRAIN_PARTS`) of each local vector dof ``2 a +
+    c`` of Q1 elements with incompatible modes, at their quadrature points: the standard
+    gradients ``grad`` (per local node a, (2, e, q)) and the modes' strain (mode (m, i) at
+    column 2 m + i, its amplitudes ``T u_e``; T (e, 4, 8), G (2, 2, e, q),
+    ``fem.bulk.mode_recovery``)."""
+    shape = grad[0].shape[1:]
+    g = np.zeros((*shape, 8))
+    modal = np.zeros((*shape, 4))
+    for c, d, f in parts:
+        for a in range(4):
+            g[..., 2 * a + c] += f * grad[a][d]
+        for m in range(2):
+            modal[..., 2 * m + c] += f * G[m, d]
+    g += np.einsum("eqk,ekj->eqj", modal, T)
+    return g
+
+
+def mode_projection_operators(scalar, components: Sequence[int], E: float, nu: float,
+                              nodal: csr_matrix) -> list[csr_matrix]:
+    """``load_operator(scalar) @ B`` for each B of :func:`mode_strain_operators` (the loads of
+    the strains on the scalar nodal basis; Q1 elements with incompatible modes of the material
+    E, nu), assembled element by element, ``sum_q phi_a(x_eq) dx_eq g_eq``
+    (:func:`mode_strain_values`) per (scalar node a, vector dof), by blocks of
+    ``fem.bulk.MODES_BLOCK`` elements with the modes of the block alone
+    (``fem.bulk.mode_block``), the operators sharing one pattern (:func:`vector_pattern` of
+    ``nodal``, a scalar matrix coupling the nodes of every element: the mass matrix):
+    neither the load operator, nor B (8 entries per quadrature point: 17 MB each at cattaneo
+    ring level 3, the comparison's peak, issue 28), nor the modes of all elements is formed.
+    The numbers are the product's to rounding (the sums in another order)."""
+    vec = vector_dofs(scalar)
+    n_el = scalar.nelems
+    lam, mu = lame_parameters(E, nu)
+    grad = [np.asarray(phi[0].grad) for phi in scalar.basis]
+    weight = [np.asarray(phi[0]) * scalar.dx for phi in scalar.basis]  # (e, q) each
+    indptr, indices, where = vector_pattern(nodal, np.asarray(scalar.element_dofs))
+    data = [np.zeros(indices.size) for _ in components]
+    for e0 in range(0, n_el, MODES_BLOCK):
+        sl = slice(e0, min(e0 + MODES_BLOCK, n_el))
+        T, G = mode_block(scalar, sl, lam, mu, grad)
+        block = [ga[:, sl] for ga in grad]
+        w = np.array([wa[sl] for wa in weight])  # (4, e, q)
+        for out, c in zip(data, components, strict=True):
+            local = np.einsum("aeq,eqj->eaj", w, mode_strain_values(block, STRAIN_PARTS[c], T, G))
+            out += np.bincount(where[sl].ravel(), weights=local.ravel(), minlength=out.size)
+    return [csr_matrix((d, indices, indptr), shape=(scalar.N, vec.N)) for d in data]
+
+
+def vector_pattern(nodal: csr_matrix, element_dofs: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pattern ``(indptr, indices)`` of an operator from a scalar nodal basis to its vector
+    dofs (``2 b + c``, ``fem.bulk.VectorDofs``) coupling the nodes of every element, and
+    ``where`` (e, a, 2 b + c): the position in its data of element e's entry (local node a,
+    local vector dof).  ``nodal``: a scalar matrix (CSR, sorted indices) with an entry for
+    every two nodes of an element (the mass matrix), each of whose columns b becomes the
+    columns 2 b, 2 b + 1; ``element_dofs``: the scalar basis's (n_loc, e)."""
+    n = nodal.shape[1]
+    itype = np.int32 if 2 * max(n, nodal.nnz) < np.iinfo(np.int32).max else np.int64
+    indptr = (2 * nodal.indptr).astype(itype)
+    indices = np.empty(2 * nodal.nnz, dtype=itype)
+    indices[0::2], indices[1::2] = 2 * nodal.indices, 2 * nodal.indices + 1
+    keys = np.repeat(np.arange(nodal.shape[0], dtype=np.int64), np.diff(nodal.indptr))
+    keys = keys * n + nodal.indices  # ascending: CSR order
+    dofs = element_dofs.T.astype(np.int64)  # (e, n_loc)
+    wanted = dofs[:, :, None] * n + dofs[:, None, :]  # (e, a, b)
+    pos = np.searchsorted(keys, wanted)
+    if not np.array_equal(keys[np.minimum(pos, keys.size - 1)], wanted):
+        raise RuntimeError("the nodal pattern lacks a pair of nodes of an element")
+    del wanted
+    where = (2 * pos.astype(itype))[..., None] + np.arange(2, dtype=itype)  # (e, a, b, c)
+    return indptr, indices, where.reshape(pos.shape[0], pos.shape[1], -1)
 
 
 def load_operator(scalar) -> csr_matrix:

@@ -3,15 +3,14 @@
 mesh -> discretise -> factorise once -> interface compliance -> per increment the
 condensed contact solve (with cut-back) -> multi-RHS solves (by blocks of increments)
 recovering the full field of every increment -> plate reactions checked against (P, Q, M).
-What a phase no longer needs is dropped before the next (the stiffness matrices once
-factorised, the compliance after the increments) and the freed heap handed back
+What a phase no longer needs is dropped before the next (the stiffness matrices once the
+blocks the history reads are cut from them, before the factorisation; the compliance after
+the increments) and the freed heap handed back
 (:func:`return_freed_memory`; issue 28).
 """
 
 from __future__ import annotations
 
-import ctypes
-import functools
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -20,9 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ._heap import return_freed_memory
 from ._validate import check_scalars, check_settings
 from .activeset import ActiveSetSolver
-from .bulk import Discretisation, discretise, free_dofs
+from .bulk import BulkBlocks, Discretisation, discretise, split_stiffness
 from .condense import condense_bodies, pair_dofs
 from .contact import (
     ContactState,
@@ -132,8 +132,9 @@ class FemHistory:
 class Model:
     """Everything fixed during the history: discretisation, factor, interface problem.
 
-    disc: the discretisation without its stiffness matrices (:func:`build_model` drops them
-    once factorised, issue 28); reaction_rows: body 1's stiffness rows of its top dofs
+    disc: the discretisation without its stiffness matrices (:func:`fem.bulk.split_stiffness`
+    cuts the blocks the history reads and drops them before the factorisation, issue 28);
+    reaction_rows: body 1's stiffness rows of its top dofs
     (``disc.fixed[0]``), all the recovery reads of it (the plate reactions ``K1 u1``); factor:
     the bulk factor, None once the fields are recovered (:func:`without_factor`)."""
 
@@ -200,23 +201,32 @@ def gap_at(h0: Callable, x: np.ndarray) -> np.ndarray:
     return np.maximum(g, 0.0)
 
 
-def add_far_field(C: np.ndarray, Cf: np.ndarray) -> np.ndarray:
-    """``C + Cf`` (the bulk compliance and the far-field lift's), summed into C (C is
-    overwritten and returned: a third dense 2n x 2n array at the peak of the history would cost
-    0.2 GB at cattaneo ring level 5, issue 28).  If the bulk's tangential-normal blocks are zero
-    (the bodies are mirror images, ``fem.condense``: a tangential pair force moves the pairs
-    apart by no normal displacement), the lift's are zero by the same symmetry, up to its
-    rounding (cattaneo, three_cylinders, applied_moment: 1.5e-14 to 4.9e-13 of max |C|), and
-    are left out: the sum stays decoupled (``fem.activeset`` factorises the normal and
-    tangential blocks apart)."""
-    if uncoupled(C):
-        n = C.shape[0] // 2
-        Cf[:n, n:] = 0.0
-        Cf[n:, :n] = 0.0
+def add_far_field(C: np.ndarray, D: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """``C + D R`` (the bulk compliance and the far-field lift's low-rank term: D the pairs'
+    relative response to the lifted fields, R the pair forces' moments), summed into C by
+    blocks of FAR_FIELD_ROWS rows (C is overwritten and returned: neither a third dense
+    2n x 2n array nor the whole ``D R`` beside C at the history's peak, issue 28).  If the
+    bulk's tangential-normal blocks are zero (the bodies are mirror images,
+    ``fem.condense``: a tangential pair force moves the pairs apart by no normal
+    displacement), the lift's are zero by the same symmetry, up to its rounding (cattaneo,
+    three_cylinders, applied_moment: 1.5e-14 to 4.9e-13 of max |C|), and are left out: the
+    sum stays decoupled (``fem.activeset`` factorises the normal and tangential blocks
+    apart)."""
+    n = C.shape[0] // 2
+    keep_uncoupled = uncoupled(C)
     C = row_major_in_place(C)  # the layout C + Cf had: the contact solver's rounding follows it
-    return np.add(C, Cf, out=C)
+    for r0 in range(0, C.shape[0], FAR_FIELD_ROWS):
+        r1 = min(r0 + FAR_FIELD_ROWS, C.shape[0])
+        term = D[r0:r1] @ R
+        if keep_uncoupled:
+            term[:max(n - r0, 0), n:] = 0.0
+            term[max(n - r0, 0):, :n] = 0.0
+        C[r0:r1] += term
+    return C
 
 
+#: Rows per block of :func:`add_far_field`'s sum.
+FAR_FIELD_ROWS = 256
 #: Rows (and columns) per block of :func:`row_major_in_place`'s swaps.
 TRANSPOSE_BLOCK = 512
 
@@ -242,6 +252,7 @@ def row_major_in_place(A: np.ndarray) -> np.ndarray:
 
 def build_model(
     disc: Discretisation,
+    bulk: BulkBlocks,
     h0: Callable,
     mu: float,
     window,
@@ -250,11 +261,10 @@ def build_model(
     backend: str,
     timings: dict,
 ) -> Model:
-    """Factorise the bulk, pick the candidate pairs and condense onto them.  The model's
-    discretisation is ``disc`` without the stiffness matrices (nothing after the factorisation
-    reads them but the plate reactions, whose rows the model keeps: a caller that drops its own
-    ``disc`` frees them, issue 28)."""
-    free, index = free_dofs(disc)
+    """Factorise the bulk, pick the candidate pairs and condense onto them.  ``bulk`` and
+    ``disc``: :func:`fem.bulk.split_stiffness` (the stiffness matrices are gone before the
+    factorisation: only their blocks ``bulk`` are read, and its bodies are handed to it)."""
+    free, index = bulk.free, bulk.index
     x = disc.interface.x
     h0_all = gap_at(h0, x)
     cand = np.isfinite(h0_all) & (index[2 * disc.interface.dof1] >= 0)
@@ -268,11 +278,12 @@ def build_model(
         raise InputError("h0 is infinite at (nearly) all interface nodes: no contact is possible")
     f1, f2 = pair_dofs(disc, index, cand)
     with timed(timings, "factorisation+condensation"):
-        factor, C = condense_bodies(disc, free, f1, f2, backend)
+        factor, C = condense_bodies(bulk.bodies, f1, f2, backend)
         far = None
         if disc.boundary == "half-plane":
-            far = lift(disc, factor, free, x[cand])
-            C = add_far_field(C, (far.fields[free[f1]] - far.fields[free[f2]]) @ far.R)
+            return_freed_memory()  # the factorisation's temporaries, beneath the lift's
+            far = lift(disc, bulk.coupling, factor, free, x[cand])
+            C = add_far_field(C, far.fields[free[f1]] - far.fields[free[f2]], far.R)
     prob = InterfaceProblem(
         C=C,
         x=x[cand],
@@ -284,7 +295,7 @@ def build_model(
         lock_theta=lock_theta,
     )
     return Model(
-        disc=replace(disc, stiffness=None),
+        disc=disc,
         factor=factor,
         free=free,
         f1=f1,
@@ -293,7 +304,7 @@ def build_model(
         prob=prob,
         h0_all=h0_all,
         far=far,
-        reaction_rows=disc.stiffness[0][disc.fixed[0]],
+        reaction_rows=bulk.reaction_rows,
     )
 
 
@@ -373,12 +384,14 @@ def check_zone_size(prob: InterfaceProblem, state: ContactState, h: float) -> No
 
 @contextmanager
 def timed(timings: dict, key: str) -> Iterator[None]:
-    """Record the wall-clock seconds of the block as ``timings[key]`` and its process CPU
-    seconds as ``timings['cpu'][key]`` (on a shared machine the CPU time is the stable one)."""
+    """Add the wall-clock seconds of the block to ``timings[key]`` and its process CPU
+    seconds to ``timings['cpu'][key]`` (on a shared machine the CPU time is the stable one; a
+    phase timed in two blocks is their sum)."""
     t0, c0 = time.perf_counter(), time.process_time()
     yield
-    timings[key] = time.perf_counter() - t0
-    timings.setdefault("cpu", {})[key] = time.process_time() - c0
+    timings[key] = timings.get(key, 0.0) + time.perf_counter() - t0
+    cpu = timings.setdefault("cpu", {})
+    cpu[key] = cpu.get(key, 0.0) + time.process_time() - c0
 
 
 def assemble_bodies(
@@ -392,26 +405,6 @@ def assemble_bodies(
     with timed(timings, "assembly"):
         disc = discretise(tbm, order, E, nu, boundary, incompatible)
     return tbm, order, disc
-
-
-@functools.cache
-def _malloc_trim() -> Callable | None:
-    """glibc's ``malloc_trim``, or None where the C library has none."""
-    try:
-        return ctypes.CDLL(None).malloc_trim
-    except (OSError, AttributeError):
-        return None
-
-
-def return_freed_memory() -> None:
-    """Hand the heap memory freed so far back to the operating system (glibc's
-    ``malloc_trim``; a no-op elsewhere).  Once a large array has been freed glibc serves the
-    arrays of up to its size (at most 32 MB) from its heap and keeps the memory they free,
-    resident beneath the next phase: the driver returns it between phases (issue 28; cattaneo
-    rings level 3, peak RSS of the history 350 MB -> 316 MB; the numbers are untouched)."""
-    trim = _malloc_trim()
-    if trim is not None:
-        trim(0)
 
 
 def solve_increments(
@@ -490,9 +483,12 @@ def solve_history(
     return_freed_memory()  # the assembly's temporaries
     with timed(timings, "history"):
         settings = resolve_contact(contact, E, tbm.h_min)
-        model = build_model(disc, h0, mu, window, settings, M is None, backend, timings)
-        del disc  # its stiffness matrices go: the model keeps what the history reads
-        return_freed_memory()  # the factorisation's temporaries and the stiffness
+        with timed(timings, "factorisation+condensation"):
+            bulk, disc = split_stiffness(disc)  # the stiffness matrices go: their blocks stay
+        return_freed_memory()
+        model = build_model(disc, bulk, h0, mu, window, settings, M is None, backend, timings)
+        del bulk
+        return_freed_memory()  # the factorisation's temporaries
         states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings)
         model = without_compliance(model)
         return_freed_memory()  # the compliance and the contact solver's matrices

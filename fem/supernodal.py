@@ -86,9 +86,23 @@ def int_array(f: CholmodFactor, address: int, size: int) -> np.ndarray:
 def trailing_block(chol, n: int, m: int) -> np.ndarray | None:
     """``L22 = L[n-m:, n-m:]`` (lower triangular, Fortran order) of the n x n supernodal
     factor ``chol`` (natural ordering: its columns are the matrix's), read in place; None
-    if ``chol`` is not a factor this module can read (the caller then uses ``chol.L()``)."""
+    if ``chol`` is not a factor this module can read (the caller then uses ``chol.L()``).
+    Its diagonal is checked against the public ``Factor.D()`` to the last bit."""
+    L22 = trailing_panel(chol, n, m, 0, m)
+    if L22 is None:
+        return None
+    d = chol.D()[n - m:]  # the public reading of the same supernodes' diagonals
+    return L22 if np.array_equal(np.diag(L22) ** 2, d) else None
+
+
+def trailing_panel(chol, n: int, m: int, c0: int, c1: int) -> np.ndarray | None:
+    """Rows ``c0 .. m-1`` of columns ``c0 .. c1-1`` of :func:`trailing_block`'s ``L22``
+    (zeros above the diagonal, Fortran order), read in place from the supernodes that own
+    those columns; None if ``chol`` is not a factor this module can read.  The recovery's
+    triangular solves read L22 a panel at a time (``fem.condense.trailing_solve``): no copy
+    of the whole triangle is kept beside the factor (issue 28)."""
     f = factor_struct(chol, n)
-    if f is None or not 0 < m <= n:
+    if f is None or not 0 < m <= n or not 0 <= c0 < c1 <= m:
         return None
     nsuper = f.nsuper
     super_ = int_array(f, f.super_, nsuper + 1)
@@ -99,38 +113,38 @@ def trailing_block(chol, n: int, m: int) -> np.ndarray | None:
     rows_all = int_array(f, f.s, f.ssize)
     x = np.ctypeslib.as_array(ctypes.cast(f.x, ctypes.POINTER(ctypes.c_double)),
                               shape=(f.xsize,))
-    off = n - m
-    L22 = np.zeros((m, m), order="F")
-    s = nsuper - 1
-    while s >= 0 and super_[s + 1] > off:
-        copy_supernode(L22, off, int(super_[s]), int(super_[s + 1]),
+    lo, hi = n - m + c0, n - m + c1
+    panel = np.zeros((m - c0, c1 - c0), order="F")
+    s = int(np.searchsorted(super_, hi, side="left")) - 1  # the supernode of column hi - 1
+    while s >= 0 and super_[s + 1] > lo:
+        copy_supernode(panel, lo, hi, int(super_[s]), int(super_[s + 1]),
                        rows_all[pi[s]:pi[s + 1]], x, int(px[s]))
         s -= 1
-    d = chol.D()[off:]  # the public reading of the same supernodes' diagonals
-    return L22 if np.array_equal(np.diag(L22) ** 2, d) else None
+    return panel
 
 
-def copy_supernode(L22: np.ndarray, off: int, k1: int, k2: int, rows: np.ndarray,
+def copy_supernode(panel: np.ndarray, lo: int, hi: int, k1: int, k2: int, rows: np.ndarray,
                    x: np.ndarray, px: int) -> None:
-    """Copy supernode ``k1 .. k2-1`` (row indices ``rows``, values ``x[px:]`` column-major,
-    ``len(rows)`` per column) into ``L22`` (the factor's rows and columns from ``off``; its
-    entries above the diagonal left as they are, zero).  The diagonal block's lower triangle
-    goes over by column blocks of COPY_BLOCK and the rows below it by slices where they are
-    consecutive (the pair dofs' own supernode: all of them), without a dense triangle copy or
-    an index grid of the whole block (issue 28: 1.9 s at level 6)."""
+    """Copy the columns ``lo .. hi-1`` of supernode ``k1 .. k2-1`` (row indices ``rows``,
+    values ``x[px:]`` column-major, ``len(rows)`` per column) into ``panel`` (the factor's
+    rows from ``lo`` and columns ``lo .. hi-1``; its entries above the diagonal left as they
+    are, zero).  The diagonal block's lower triangle goes over by column blocks of COPY_BLOCK
+    and the rows below it by slices where they are consecutive (the pair dofs' own
+    supernode: all of them), without a dense triangle copy or an index grid of the whole
+    block (issue 28: 1.9 s at level 6)."""
     nsrow, nscol = rows.size, k2 - k1
-    c0 = max(off - k1, 0)  # the supernode's first column inside the trailing block
-    slab = x[px:px + nsrow * nscol].reshape(nscol, nsrow)[c0:, c0:].T  # rows x columns
-    j = k1 + c0 - off  # the first column (and row) in L22
-    r = rows[c0:] - off
-    top = nscol - c0
-    for b0 in range(0, top, COPY_BLOCK):
-        b1 = min(b0 + COPY_BLOCK, top)
-        L22[j + b0:j + top, j + b0:j + b1] = slab[b0:top, b0:b1]
-        d = L22[j + b0:j + b1, j + b0:j + b1]
+    c0, c1 = max(lo - k1, 0), min(hi, k2) - k1  # the supernode's columns inside the panel
+    slab = x[px:px + nsrow * nscol].reshape(nscol, nsrow)[c0:c1, c0:].T  # rows x columns
+    j = k1 + c0 - lo  # the first column (and row) in the panel
+    r = rows[c0:] - lo
+    top, width = nscol - c0, c1 - c0
+    for b0 in range(0, width, COPY_BLOCK):
+        b1 = min(b0 + COPY_BLOCK, width)
+        panel[j + b0:j + top, j + b0:j + b1] = slab[b0:top, b0:b1]
+        d = panel[j + b0:j + b1, j + b0:j + b1]
         d[np.triu_indices(b1 - b0, 1)] = 0.0  # the slab's entries above the diagonal
     below = r[top:]
     if below.size and np.array_equal(below, np.arange(below[0], below[0] + below.size)):
-        L22[below[0]:below[0] + below.size, j:j + top] = slab[top:]
+        panel[below[0]:below[0] + below.size, j:j + width] = slab[top:]
     elif below.size:
-        L22[below, j:j + top] = slab[top:]
+        panel[below, j:j + width] = slab[top:]

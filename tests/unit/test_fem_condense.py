@@ -10,7 +10,7 @@ import pytest
 import scipy.sparse as sp
 
 import fem
-from fem.bulk import reduced_stiffness
+from fem.bulk import reduced_bodies, reduced_stiffness, split_stiffness
 from fem.condense import body_blocks, compliance, condense, mirror_lower, pair_loads
 from fem.fields import FieldRecovery
 from fem.history import assemble_bodies, build_model, load_schedule, resolve_contact, run_increments
@@ -111,8 +111,8 @@ def test_recovered_fields_equal_a_coupled_solve_on_a_small_mesh():
     mesh = fem.MeshSpec(level=-2)
     tbm, _, disc = assemble_bodies(mesh, window, (), E, nu, timings)
     settings = resolve_contact(None, E, tbm.h_min)
-    model = build_model(disc, lambda x: x**2 / 200.0, mu, window, settings, True, "cholmod",
-                        timings)
+    model = build_model(*split_stiffness(disc)[::-1], lambda x: x**2 / 200.0, mu, window,
+                        settings, True, "cholmod", timings)
     schedule = load_schedule(P0, 0.002, None, fem.LoadPath(n_normal=2, n_tangential=2))
     states = run_increments(model.prob, schedule, settings, None)
     got = FieldRecovery.from_states(model, states)
@@ -142,9 +142,11 @@ def test_recovery_by_blocks_of_increments_equals_all_at_once_bit_for_bit(monkeyp
     tbm, _, disc = assemble_bodies(fem.MeshSpec(level=-2, layout=layout), window, (), E, nu,
                                    timings)
     settings = resolve_contact(None, E, tbm.h_min)
-    model = build_model(disc, lambda x: x**2 / 200.0, mu, window, settings, True, "cholmod",
-                        timings)
-    assert model.disc.stiffness is None  # dropped once factorised
+    bulk, bare = split_stiffness(disc)
+    model = build_model(bare, bulk, lambda x: x**2 / 200.0, mu, window, settings, True,
+                        "cholmod", timings)
+    assert model.disc.stiffness is None and disc.stiffness is not None  # the caller's stays
+    assert bulk.bodies == []  # handed to the factorisation
     schedule = load_schedule(P0, 0.002, None, fem.LoadPath(n_normal=4, n_tangential=6))
     states = run_increments(model.prob, schedule, settings, None)
     assert len(states) == 22 and cd.column_blocks(22, 8) == [slice(0, 8), slice(8, 16),
@@ -346,7 +348,6 @@ def same_sparse(A, B) -> bool:
 
 
 def test_reduced_bodies_are_the_blocks_of_the_reduced_stiffness_bit_for_bit():
-    from fem.bulk import reduced_bodies
 
     disc, free, _ = ring_discretisation()
     K = reduced_stiffness(disc, free)
@@ -375,7 +376,7 @@ def test_condense_bodies_gives_the_numbers_of_condense_on_the_whole_stiffness(mo
     import fem.condense as cd
 
     disc, free, f1, f2, calls = ring_pairs_with_a_condense_spy(monkeypatch)
-    factor, C = cd.condense_bodies(disc, free, f1, f2, "cholmod")
+    factor, C = cd.condense_bodies(reduced_bodies(disc, free), f1, f2, "cholmod")
     assert calls == []  # the bodies went straight to the per-body factors
     ref_factor, ref_C = condense(reduced_stiffness(disc, free), f1, f2, "cholmod")
     assert np.array_equal(C, ref_C)
@@ -389,20 +390,28 @@ def test_condense_bodies_falls_back_to_the_whole_stiffness_off_cholmod(monkeypat
     import fem.condense as cd
 
     disc, free, f1, f2, calls = ring_pairs_with_a_condense_spy(monkeypatch)
-    _, C = cd.condense_bodies(disc, free, f1, f2, "scipy-splu")
-    assert calls == [1]
+    bodies = reduced_bodies(disc, free)
+    assert same_sparse(sp.block_diag(bodies, format="csc"), reduced_stiffness(disc, free))
+    _, C = cd.condense_bodies(bodies, f1, f2, "scipy-splu")
+    assert calls == [1] and bodies == []
     _, ref = cd.condense(reduced_stiffness(disc, free), f1, f2, "cholmod")
     assert np.allclose(C, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
 
 
-def test_far_field_coupling_loads_equal_the_whole_stiffness_product_bit_for_bit():
+def test_split_stiffness_gives_the_blocks_of_the_whole_stiffness_bit_for_bit():
     from fem.farfield import coupling_loads
 
     disc, free, _ = ring_discretisation()
     fixed = np.r_[disc.fixed[0], disc.fixed[1] + disc.bases[0].N]
     G = np.random.default_rng(6).normal(size=(fixed.size, 4))
     K = sp.block_diag(disc.stiffness, format="csr")
-    assert np.array_equal(coupling_loads(disc, free, G), K[free][:, fixed] @ G)
+    bulk, bare = split_stiffness(disc)
+    assert np.array_equal(coupling_loads(bulk.coupling, G), K[free][:, fixed] @ G)
+    assert bare.stiffness is None and disc.stiffness is not None
+    assert np.array_equal(bulk.free, free)
+    assert same_sparse(bulk.reaction_rows, disc.stiffness[0][disc.fixed[0]])
+    for got, ref in zip(bulk.bodies, reduced_bodies(disc, free), strict=True):
+        assert same_sparse(got, ref)
 
 
 def identical_neighbours(K: sp.csc_matrix, off: np.ndarray) -> np.ndarray:
@@ -417,7 +426,6 @@ def test_body_order_keeps_a_nodes_two_dofs_together_and_the_pair_dofs_last(monke
     """The ordering is of the node graph: on a ring-mesh body every free node's x and y dofs
     (consecutive dofs with one pattern) are eliminated one right after the other."""
     import fem.condense as cd
-    from fem.bulk import reduced_bodies
 
     disc, free, f1, _, _ = ring_pairs_with_a_condense_spy(monkeypatch)
     K1, _ = reduced_bodies(disc, free)
@@ -487,9 +495,44 @@ def test_node_graph_ordering_gives_the_compliance_of_a_reference_solve(monkeypat
 
     disc, free, f1, f2, _ = ring_pairs_with_a_condense_spy(monkeypatch)
     monkeypatch.setattr(cd, "NESDIS_MIN_DOFS", 0)
-    factor, C = cd.condense_bodies(disc, free, f1, f2, "cholmod")
+    factor, C = cd.condense_bodies(reduced_bodies(disc, free), f1, f2, "cholmod")
     K = reduced_stiffness(disc, free)
     ref = compliance(factorize(K, "scipy-splu"), f1, f2)
     assert np.max(np.abs(C - ref)) <= 1e-11 * np.abs(ref).max()
     b = np.random.default_rng(7).normal(size=(free.size, 2))
     assert np.max(np.abs(K @ factor.solve(b) - b)) <= 1e-10 * np.abs(b).max()
+
+
+@pytest.mark.parametrize("panel", [1, 7, 256])
+def test_triangular_solve_by_panels_is_the_whole_solve_to_rounding(monkeypatch, panel):
+    """trailing_solve reads L22 a panel at a time (of 1, 7 and more than its 50 columns):
+    dtrsm's solution on the whole triangle, to rounding."""
+    from scipy.linalg import solve_triangular
+    from scipy.linalg.lapack import dtrttp
+
+    import fem.condense as cd
+
+    monkeypatch.setattr(cd, "TRIANGLE_PANEL", panel)
+    rng = np.random.default_rng(8)
+    m = 50
+    L = np.asfortranarray(np.tril(rng.normal(size=(m, m))) / np.sqrt(m) + 2.0 * np.eye(m))
+    packed, _ = dtrttp(L, uplo="L")
+    f = rng.normal(size=(m, 5))
+    ref = solve_triangular(L, f, lower=True)
+    got = cd.trailing_solve(cd.panel_reader(None, m, m, packed), f)
+    assert np.max(np.abs(got - ref)) <= 1e-14 * np.max(np.abs(ref))
+
+
+def test_pair_solves_reading_the_factor_in_place_equal_those_of_a_packed_copy(monkeypatch):
+    """The recovery's triangular solves read L22 from the factor (no copy kept) or, for a
+    factor fem.supernodal cannot read, from a packed copy: the same numbers bit for bit."""
+    import fem.condense as cd
+
+    disc, free, f1, f2, _ = ring_pairs_with_a_condense_spy(monkeypatch)
+    monkeypatch.setattr(cd, "TRIANGLE_PANEL", 64)  # several panels of the 2 x 2n pair dofs
+    factor, C = cd.condense_bodies(reduced_bodies(disc, free), f1, f2, "cholmod")
+    monkeypatch.setattr(cd, "trailing_block", lambda *a: None)  # the chol.L() fallback
+    copied, C_ref = cd.condense_bodies(reduced_bodies(disc, free), f1, f2, "cholmod")
+    assert f1.size > 64 and np.array_equal(C, C_ref)
+    lam = np.random.default_rng(9).normal(size=(f1.size, 5))
+    assert np.array_equal(factor.pair_solve(lam), copied.pair_solve(lam))

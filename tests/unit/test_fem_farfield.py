@@ -5,6 +5,9 @@ import pytest
 
 from fem.farfield import ORDERS, flamant_body, flamant_lower, moment_matrix
 
+#: Rounding of a sum of a few products of O(1) numbers, relative to their size.
+ROUNDING = 1e-15
+
 E, NU = 2.0, 0.3
 LAM, G = E * NU / ((1 + NU) * (1 - 2 * NU)), E / (2 * (1 + NU))
 #: Central-difference step and the agreement it allows (truncation ~ step^2 / r^2).
@@ -73,23 +76,29 @@ def test_expansion_reproduces_distributed_forces_far_away():
         assert abs(series - exact) < tol * abs(far) * r
 
 
-def test_far_field_term_keeps_a_decoupled_compliance_decoupled():
+@pytest.mark.parametrize("rows", [256, 3])
+def test_far_field_term_keeps_a_decoupled_compliance_decoupled(monkeypatch, rows):
     """The lift's tangential-normal blocks (rounding of a term that is zero between mirror-image
-    bodies) are left out when the bulk's are zero, and kept when the bulk couples them."""
-    from fem.history import add_far_field
+    bodies) are left out when the bulk's are zero, and kept when the bulk couples them; by
+    row blocks (of 3: blocks across the tangential-normal border) the sum is the whole
+    product's to rounding (BLAS's kernels for a block's rows are not the whole product's)."""
+    import fem.history as history
 
+    monkeypatch.setattr(history, "FAR_FIELD_ROWS", rows)
     rng = np.random.default_rng(1)
     n = 5
     C = np.diag(rng.uniform(1.0, 2.0, 2 * n))
-    Cf = rng.normal(size=(2 * n, 2 * n))
+    D, R = rng.normal(size=(2 * n, 6)), rng.normal(size=(6, 2 * n))
+    Cf = D @ R
     into = C.copy()
-    out = add_far_field(into, Cf.copy())
+    out = history.add_far_field(into, D, R)
     assert out is into  # summed in place: no third dense matrix at the history's peak
     assert not np.any(out[:n, n:]) and not np.any(out[n:, :n])
-    assert np.array_equal(out[:n, :n], C[:n, :n] + Cf[:n, :n])
-    assert np.array_equal(out[n:, n:], C[n:, n:] + Cf[n:, n:])
+    close = dict(rtol=0.0, atol=ROUNDING * np.abs(Cf).max())
+    assert np.allclose(out[:n, :n], C[:n, :n] + Cf[:n, :n], **close)
+    assert np.allclose(out[n:, n:], C[n:, n:] + Cf[n:, n:], **close)
     C[0, n] = C[n, 0] = 0.1
-    assert np.array_equal(add_far_field(C.copy(), Cf.copy()), C + Cf)
+    assert np.allclose(history.add_far_field(C.copy(), D, R), C + Cf, **close)
 
 
 @pytest.mark.parametrize("m", [1, 7, 10, 12])
@@ -114,7 +123,26 @@ def test_far_field_sum_of_a_fortran_compliance_is_row_major():
 
     rng = np.random.default_rng(2)
     C = np.asfortranarray(rng.normal(size=(8, 8)))
-    Cf = rng.normal(size=(8, 8))
-    want = C + Cf
-    out = add_far_field(C.copy(order="F"), Cf.copy())
-    assert out.flags.c_contiguous and np.array_equal(out, want)
+    D, R = rng.normal(size=(8, 6)), rng.normal(size=(6, 8))
+    want = C + D @ R
+    out = add_far_field(C.copy(order="F"), D, R)
+    assert out.flags.c_contiguous and np.array_equal(out, want)  # one block: one product
+
+
+@pytest.mark.parametrize("rows", [3, 8192])
+def test_far_field_displacement_is_added_by_row_blocks(monkeypatch, rows):
+    """add_displacement sums the far field into a recovered field by blocks of rows (of 3: a
+    last, shorter block), the numbers of the whole product to rounding, in place."""
+    import fem.farfield as ff
+
+    monkeypatch.setattr(ff, "FAR_ROWS", rows)
+    rng = np.random.default_rng(3)
+    x = np.linspace(-1.0, 1.0, 5)
+    far = ff.FarField(fields=rng.normal(size=(20, 2 * ORDERS)), R=moment_matrix(x, 0.1), xr=0.1)
+    lam = rng.normal(size=(2 * x.size, 4))
+    U = rng.normal(size=(20, 7))
+    want = U[:, 2:6] + far.displacement(lam)
+    view = U[:, 2:6]  # a block of increments of the recovered fields
+    far.add_displacement(view, lam)
+    assert np.shares_memory(view, U)
+    assert np.allclose(U[:, 2:6], want, rtol=0.0, atol=ROUNDING * 10 * np.abs(want).max())

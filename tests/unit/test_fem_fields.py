@@ -125,3 +125,21 @@ def test_strain_operators_in_any_order_are_the_same_operators():
     for c, B in zip(XY_FIRST, iter_strain_operators(scalar, XY_FIRST), strict=True):
         for name in ("indptr", "indices", "data"):
             assert np.array_equal(getattr(B, name), getattr(ref[c], name))
+
+
+def test_released_scalar_bases_keep_their_dof_coordinates_and_are_built_again():
+    """ScalarBases.release drops a body's quadrature data; its dof coordinates stay (no
+    basis is built for them) and the basis is built again, the same, when asked for."""
+    from fem.bulk import ScalarBases
+    from fem.mesh import build_mesh
+
+    tbm = build_mesh(fem.MeshSpec(level=-2), (-0.2, 0.2))
+    bases = ScalarBases(tbm.bodies, 1)
+    first = bases[1]
+    xy = first.doflocs.copy()
+    bases.release(1)
+    assert bases._built[1] is None
+    assert np.array_equal(bases.doflocs(1), xy) and bases._built[1] is None
+    again = bases[1]
+    assert again is not first and np.array_equal(again.doflocs, xy)
+    assert np.array_equal(np.asarray(again.dx), np.asarray(first.dx))

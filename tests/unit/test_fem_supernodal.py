@@ -87,10 +87,13 @@ def test_trailing_compliance_reads_the_supernodal_factor_in_place(monkeypatch):
     monkeypatch.setattr(cd, "trailing_block", spy)
     chol = natural_factor(A)
     Cb, packed = cd.trailing_compliance(chol, n, m)
-    assert reads == [True]
+    assert reads == [True] and packed is None  # the recovery reads the factor again
     monkeypatch.setattr(cd, "trailing_block", lambda *a: None)  # the L() fallback
     Cb_ref, packed_ref = cd.trailing_compliance(chol, n, m)
-    assert np.array_equal(Cb, Cb_ref) and np.array_equal(packed, packed_ref)
+    assert np.array_equal(Cb, Cb_ref) and packed_ref.size == m * (m + 1) // 2
+    in_place, copied = cd.panel_reader(chol, n, m, None), cd.panel_reader(chol, n, m, packed_ref)
+    for c0, c1 in ((0, m), (0, 1), (37, 38), (5, 90), (90, m)):
+        assert np.array_equal(in_place(c0, c1), copied(c0, c1))
     S = np.linalg.inv(np.linalg.inv(A.toarray())[-m:, -m:])  # Schur complement on the tail
     Cfull = np.tril(Cb) + np.tril(Cb, -1).T
     assert np.allclose(Cfull @ S, np.eye(m), atol=1e-10)
@@ -108,3 +111,23 @@ def test_the_block_copied_column_block_by_column_block_is_the_same(monkeypatch, 
     chol = natural_factor(A)
     got = sn.trailing_block(chol, A.shape[0], m)
     assert np.array_equal(got, chol.L()[-m:, -m:].toarray())
+
+
+@pytest.mark.parametrize("block", [3, 256])
+@pytest.mark.parametrize("window", [(0, 100), (0, 1), (99, 100), (13, 14), (10, 57), (57, 100)])
+def test_a_panel_of_the_trailing_block_is_its_columns_from_the_diagonal_down(monkeypatch, block,
+                                                                             window):
+    """trailing_panel(c0, c1): rows c0.. of columns c0..c1-1 of L22 (a block spanning several
+    supernodes and starting inside one), bit for bit, zeros above the diagonal."""
+    import fem.supernodal as sn
+
+    monkeypatch.setattr(sn, "COPY_BLOCK", block)
+    A = elastic_like(30)
+    n, m = A.shape[0], 100
+    chol = natural_factor(A)
+    c0, c1 = window
+    got = sn.trailing_panel(chol, n, m, c0, c1)
+    ref = chol.L()[-m:, -m:].toarray()[c0:, c0:c1]
+    assert got.flags.f_contiguous and np.array_equal(got, ref)
+    assert sn.trailing_panel(chol, n, m, c1, c1) is None  # an empty window
+    assert sn.trailing_panel(natural_factor(A, "simplicial"), n, m, c0, c1) is None

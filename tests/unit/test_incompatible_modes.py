@@ -4,6 +4,7 @@ exact, and the strains the stress projection reads (fem.fields.mode_strain_opera
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from skfem import Basis, ElementQuad1, MeshQuad
 
 import fem
@@ -91,6 +92,24 @@ def test_plain_q1_operators_unchanged_by_the_mode_path():
         assert abs(A - B).max() == 0.0
 
 
+@pytest.mark.parametrize("block", [3, 4096])
+def test_projection_operators_are_the_loads_of_the_strain_operators(monkeypatch, block):
+    """The stress projection's operators with the modes, assembled element by element (by
+    blocks of 3 elements: 20 elements in 7 blocks): ``load_operator @ B`` of the strain
+    operators to rounding (the sums in another order), in the projector's order."""
+    import fem.fields as fields
+
+    monkeypatch.setattr(fields, "MODES_BLOCK", block)
+    b = distorted_basis(3)
+    modes = mode_recovery(b, E, NU)
+    load = fields.load_operator(b)
+    got = fields.mode_projection_operators(b, fields.XY_FIRST, E, NU, fem.bulk.mass_matrix(b))
+    want = iter_strain_operators(b, fields.XY_FIRST, modes)
+    for A, B in zip(got, want, strict=True):
+        ref = (load @ B).toarray()
+        assert np.abs(A.toarray() - ref).max() <= 1e-14 * np.abs(ref).max()
+
+
 def test_incompatible_must_be_a_bool():
     with pytest.raises(InputError, match="incompatible='yes' is not allowed: need True or False"):
         fem.solve_history(lambda x: x**2, 1.0, 0.1, 0.5, 1.0, 0.3,
@@ -111,3 +130,16 @@ def test_report_names_the_element_with_its_modes():
     assert "Q4 (linear) with incompatible modes, level 1" in fe_text(res(1, True))
     assert "Q4 (linear), level 1" in fe_text(res(1, False))
     assert "Q9 (quadratic), level 1" in fe_text(res(2, True))  # no modes on Q9
+
+
+def test_vector_pattern_needs_every_pair_of_nodes_of_an_element():
+    import fem.fields as fields
+
+    b = distorted_basis(4)
+    mass = fem.bulk.mass_matrix(b)
+    indptr, indices, where = fields.vector_pattern(mass, b.element_dofs)
+    assert indices.size == 2 * mass.nnz and where.shape == (b.nelems, 4, 8)
+    assert np.unique(where).size == indices.size  # every entry is some element's
+    diagonal = sp.diags(mass.diagonal()).tocsr()  # only each node with itself
+    with pytest.raises(RuntimeError, match="lacks a pair of nodes"):
+        fields.vector_pattern(diagonal, b.element_dofs)
