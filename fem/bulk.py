@@ -405,12 +405,16 @@ def reduced_stiffness(disc: Discretisation, free: np.ndarray) -> sp.csc_matrix:
 def reduced_bodies(disc: Discretisation, free: np.ndarray) -> list[sp.csc_matrix]:
     """Each body's stiffness restricted to its own free dofs: the diagonal blocks of
     :func:`reduced_stiffness` (body 1's free dofs first), without forming the whole matrix."""
+    return [K[local][:, local].tocsc() for K, local, _ in body_dofs(disc, free)]
+
+
+def body_dofs(disc: Discretisation, free: np.ndarray) -> list[tuple]:
+    """Per body ``(K_b, free_b, fixed_b)``: its stiffness, its free dofs (of ``free``, the
+    global free dofs) and its prescribed dofs, both in the body's own numbering."""
     n1 = disc.bases[0].N
-    blocks = []
-    for K, lo, hi in ((disc.stiffness[0], 0, n1), (disc.stiffness[1], n1, disc.n_dofs)):
-        local = free[(free >= lo) & (free < hi)] - lo
-        blocks.append(K[local][:, local].tocsc())
-    return blocks
+    return [(K, free[(free >= lo) & (free < hi)] - lo, fixed)
+            for K, lo, hi, fixed in ((disc.stiffness[0], 0, n1, disc.fixed[0]),
+                                     (disc.stiffness[1], n1, disc.n_dofs, disc.fixed[1]))]
 
 
 @dataclass(frozen=True, eq=False)
@@ -437,15 +441,9 @@ def split_stiffness(disc: Discretisation) -> tuple[BulkBlocks, Discretisation]:
     """``(blocks, disc without its stiffness matrices)``: a caller that rebinds its ``disc``
     to the second frees the matrices (the blocks are copies)."""
     free, index = free_dofs(disc)
-    n1 = disc.bases[0].N
-    coupling = []
-    for K, lo, hi, fixed in ((disc.stiffness[0], 0, n1, disc.fixed[0]),
-                             (disc.stiffness[1], n1, disc.n_dofs, disc.fixed[1])):
-        local = free[(free >= lo) & (free < hi)] - lo
-        coupling.append(K[:, fixed][local])
+    coupling = tuple(K[:, fixed][local] for K, local, fixed in body_dofs(disc, free))
     blocks = BulkBlocks(free=free, index=index, bodies=reduced_bodies(disc, free),
-                        coupling=tuple(coupling),
-                        reaction_rows=disc.stiffness[0][disc.fixed[0]])
+                        coupling=coupling, reaction_rows=disc.stiffness[0][disc.fixed[0]])
     return blocks, replace(disc, stiffness=None)
 
 

@@ -68,11 +68,11 @@ RHS_BLOCK = 256
 #: blocks of 4, 8, 12, 16, 24, 32, 40 identical; 1, 2, 3, 5, 6, 41 not;
 #: tests/unit/test_fem_condense.py).  At level 6 a sweep's cost is proportional to its
 #: columns, so wider blocks buy little: CPU ms per column of one sweep of body 1 (1.35M dofs,
-#: two runs) 72-74 / 60-61 / 58 / 50-56 / 60-62 with 8 / 16 / 32 / 48 / 84 columns.  8, for
-#: memory: at cattaneo ring level 3 (growth 1.35) the sweep's two arrays of 16 columns, 10 MB,
-#: set the history's peak (process peak RSS 218-223 MB, 203-210 MB with 8, four runs each);
-#: the sweeps cost about 20 % more CPU (level 3 recovery 0.22 -> 0.27 s, level 6 ~1 s of 43).
-RECOVERY_BLOCK = 8
+#: two runs) 72-74 / 60-61 / 58 / 50-56 / 60-62 with 8 / 16 / 32 / 48 / 84 columns.  At
+#: cattaneo ring level 3 (growth 1.35) the sweep's two arrays (body dofs x columns each) set
+#: the history's peak: process peak RSS 204-208 / 211 / 217-219 MB and history CPU 0.83-0.95 /
+#: 0.70-0.82 / 0.69-0.75 s with 8 / 12 / 16 columns (three runs each, alternating); 12.
+RECOVERY_BLOCK = 12
 #: Columns of a body's trailing factor block L22 unpacked at a time by the recovery's
 #: triangular solve (:func:`trailing_solve`): a panel of (m x TRIANGLE_PANEL) numbers, not
 #: the whole m x m triangle; wide enough for BLAS-3 speed.

@@ -34,9 +34,6 @@ import numpy as np
 
 #: Multipole orders kept (0: resultant, 1: first moments, 2: second moments).
 ORDERS = 3
-#: Rows per block of :meth:`FarField.add_displacement` (a block's product is rows x load
-#: cases numbers).
-FAR_ROWS = 8192
 
 
 def log_lower(z: np.ndarray) -> np.ndarray:
@@ -137,14 +134,6 @@ class FarField:
     def displacement(self, lam: np.ndarray) -> np.ndarray:
         """Full-field far-field displacement for pair forces lam (columns: load cases)."""
         return self.fields @ (self.R @ lam)
-
-    def add_displacement(self, out: np.ndarray, lam: np.ndarray) -> None:
-        """``out += self.displacement(lam)`` by blocks of FAR_ROWS rows: no second
-        full-field array beside ``out`` (issue 28: 10 MB at cattaneo ring level 3)."""
-        moments = self.R @ lam
-        for r0 in range(0, out.shape[0], FAR_ROWS):
-            rows = slice(r0, min(r0 + FAR_ROWS, out.shape[0]))
-            out[rows] += self.fields[rows] @ moments
 
 
 def coupling_loads(coupling: tuple, G: np.ndarray) -> np.ndarray:

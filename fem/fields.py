@@ -18,11 +18,13 @@ from scipy.sparse import csr_matrix
 from skfem.models.elasticity import lame_parameters
 
 from .bulk import MODES_BLOCK, compact, mass_matrix, mode_block, vector_dofs
-from .condense import RECOVERY_BLOCK, column_blocks, pair_loads
+from .condense import pair_loads
 from .linsolve import factorize
 
 #: Per strain operator (xx, yy, xy): its (component c, derivative d, factor) terms d_d u_c.
 STRAIN_PARTS = (((0, 0, 1.0),), ((1, 1, 1.0),), ((0, 1, 0.5), (1, 0, 0.5)))
+#: Rows of the recovered fields per block of :func:`add_motions` (even: a node's two dofs).
+MOTION_ROWS = 8192
 #: Order in which the projector builds the strain operators: eps_xy (twice the entries) first.
 XY_FIRST = (2, 0, 1)
 
@@ -56,8 +58,9 @@ class FieldRecovery:
     @classmethod
     def from_states(cls, model, states) -> FieldRecovery:
         """Recover the full fields of a list of converged contact states (the model of
-        :func:`fem.history.build_model`); the temporaries are of one block of increments
-        (``fem.condense.RECOVERY_BLOCK``), the numbers those of all at once."""
+        :func:`fem.history.build_model`); the sweeps' temporaries are of one block of
+        increments (``fem.condense.RECOVERY_BLOCK``), the numbers those of all at once, and the
+        far field and the plate's motion are added by blocks of rows (:func:`add_motions`)."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
         U = np.zeros((disc.n_dofs, lam.shape[1]))
@@ -67,14 +70,9 @@ class FieldRecovery:
             U[model.free] = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2,
                                                           lam))
         N1 = disc.bases[0].N
+        far = None if model.far is None else (model.far.fields, model.far.R @ lam)
+        add_motions(U, disc.bases[0].doflocs, far, np.array([s.z for s in states]).T)
         U1, U2 = U[:N1], U[N1:]  # views: no second copy of the fields
-        loc = disc.bases[0].doflocs
-        z = np.array([s.z for s in states]).T
-        for c in column_blocks(z.shape[1], RECOVERY_BLOCK):
-            if model.far is not None:
-                model.far.add_displacement(U[:, c], lam[:, c])
-            U1[0::2, c] += z[0][None, c] - loc[1, 0::2, None] * z[2][None, c]  # plate's rigid
-            U1[1::2, c] += z[1][None, c] + loc[0, 1::2, None] * z[2][None, c]  # motion
         return cls(disc, U1, U2, model.factor.backend, model.reaction_rows)
 
     def displacement(self, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -143,6 +141,23 @@ class FieldRecovery:
         S = mass.solve(rhs)  # column c k + j: component c of increment j
         del rhs
         return [np.ascontiguousarray(S[:, j::k].T) for j in range(k)]
+
+
+def add_motions(U: np.ndarray, loc: np.ndarray, far: tuple | None, z: np.ndarray) -> None:
+    """Add to the recovered fields U (all dofs of both bodies x increments, C order) the far
+    field ``fields @ moments`` (``far``; ``fem.farfield.FarField``, None: clamped bodies) and
+    body 1's rigid motion with the plate ``u = u_p - theta y, v = v_p + theta x`` (``z`` (3,
+    increments), ``loc`` body 1's (2, N1) dof coordinates), by blocks of MOTION_ROWS rows
+    of all increments: contiguous rows of U, no full-field temporary (issue 28)."""
+    n1 = loc.shape[1]
+    for r0 in range(0, U.shape[0], MOTION_ROWS):
+        r1 = min(r0 + MOTION_ROWS, U.shape[0])
+        if far is not None:
+            U[r0:r1] += far[0][r0:r1] @ far[1]
+        if r0 < n1:  # body 1's x dofs at even rows, y dofs at odd ones (MOTION_ROWS even)
+            b1 = min(r1, n1)
+            U[r0:b1:2] += z[0] - loc[1, r0:b1:2, None] * z[2]
+            U[r0 + 1:b1:2] += z[1] + loc[0, r0 + 1:b1:2, None] * z[2]
 
 
 def projection_operators(disc, body: int, mass: csr_matrix) -> list[csr_matrix]:

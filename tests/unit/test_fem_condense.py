@@ -128,12 +128,12 @@ def test_recovered_fields_equal_a_coupled_solve_on_a_small_mesh():
 
 @pytest.mark.parametrize("layout", ["tensor", "rings"])
 def test_recovery_by_blocks_of_increments_equals_all_at_once_bit_for_bit(monkeypatch, layout):
-    """The recovery's backward sweeps, far field and plate motion by blocks of increments (22
-    increments: blocks 8 + 8 + 6, and of RECOVERY_BLOCK) give the numbers of one block of all
-    increments bit for bit (tensor: two factors; rings: body 2 the mirror of body 1), and the
-    model's stiffness rows of the top give the reactions of the whole stiffness."""
+    """The recovery's backward sweeps by blocks of increments (22 increments: blocks 8 + 8 +
+    6, and of RECOVERY_BLOCK) give the numbers of one block of all increments bit for bit
+    (tensor: two factors; rings: body 2 the mirror of body 1; the far field and the plate's
+    motion are added by rows, fem.fields.add_motions), and the model's stiffness rows of the
+    top give the reactions of the whole stiffness."""
     import fem.condense as cd
-    import fem.fields as fields
 
     P0, mu, E, nu = 0.01, 0.5, 1.0, 0.3
     a = np.sqrt(2 * 3.64 * 0.01 * 100 / np.pi)
@@ -153,10 +153,8 @@ def test_recovery_by_blocks_of_increments_equals_all_at_once_bit_for_bit(monkeyp
                                                              slice(16, 22)]
     default = FieldRecovery.from_states(model, states)
     monkeypatch.setattr(cd, "RECOVERY_BLOCK", 8)
-    monkeypatch.setattr(fields, "RECOVERY_BLOCK", 8)
     got = FieldRecovery.from_states(model, states)
     monkeypatch.setattr(cd, "RECOVERY_BLOCK", len(states))
-    monkeypatch.setattr(fields, "RECOVERY_BLOCK", len(states))
     ref = FieldRecovery.from_states(model, states)
     whole = FieldRecovery(disc, *ref.U)  # reactions from the whole K1 of the caller's disc
     for body in (0, 1):

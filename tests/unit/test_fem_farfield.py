@@ -128,21 +128,3 @@ def test_far_field_sum_of_a_fortran_compliance_is_row_major():
     out = add_far_field(C.copy(order="F"), D, R)
     assert out.flags.c_contiguous and np.array_equal(out, want)  # one block: one product
 
-
-@pytest.mark.parametrize("rows", [3, 8192])
-def test_far_field_displacement_is_added_by_row_blocks(monkeypatch, rows):
-    """add_displacement sums the far field into a recovered field by blocks of rows (of 3: a
-    last, shorter block), the numbers of the whole product to rounding, in place."""
-    import fem.farfield as ff
-
-    monkeypatch.setattr(ff, "FAR_ROWS", rows)
-    rng = np.random.default_rng(3)
-    x = np.linspace(-1.0, 1.0, 5)
-    far = ff.FarField(fields=rng.normal(size=(20, 2 * ORDERS)), R=moment_matrix(x, 0.1), xr=0.1)
-    lam = rng.normal(size=(2 * x.size, 4))
-    U = rng.normal(size=(20, 7))
-    want = U[:, 2:6] + far.displacement(lam)
-    view = U[:, 2:6]  # a block of increments of the recovered fields
-    far.add_displacement(view, lam)
-    assert np.shares_memory(view, U)
-    assert np.allclose(U[:, 2:6], want, rtol=0.0, atol=ROUNDING * 10 * np.abs(want).max())

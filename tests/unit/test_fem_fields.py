@@ -143,3 +143,34 @@ def test_released_scalar_bases_keep_their_dof_coordinates_and_are_built_again():
     again = bases[1]
     assert again is not first and np.array_equal(again.doflocs, xy)
     assert np.array_equal(np.asarray(again.dx), np.asarray(first.dx))
+
+
+@pytest.mark.parametrize("rows", [4, 8192])
+def test_far_field_and_plate_motion_are_added_by_blocks_of_rows(monkeypatch, rows):
+    """add_motions: the far field of every dof and body 1's rigid motion with the plate, by
+    blocks of rows (of 4: blocks inside body 1, across its end and in body 2), the numbers of
+    the whole products to rounding, in U itself."""
+    import fem.fields as fields
+    from fem.farfield import FarField, moment_matrix
+
+    monkeypatch.setattr(fields, "MOTION_ROWS", rows)
+    rng = np.random.default_rng(5)
+    n1, n, k = 10, 22, 7  # body 1: 5 nodes, 10 dofs
+    far = FarField(fields=rng.normal(size=(n, 6)), R=moment_matrix(np.linspace(-1, 1, 4), 0.1),
+                   xr=0.1)
+    lam, z = rng.normal(size=(8, k)), rng.normal(size=(3, k))
+    loc = np.repeat(rng.normal(size=(2, n1 // 2)), 2, axis=1)  # a node's two dofs, one place
+    U = rng.normal(size=(n, k))
+    want = U + far.displacement(lam)
+    want[0:n1:2] += z[0] - loc[1, 0::2, None] * z[2]
+    want[1:n1:2] += z[1] + loc[0, 1::2, None] * z[2]
+    buffer = U
+    fields.add_motions(U, loc, (far.fields, far.R @ lam), z)
+    assert U is buffer
+    assert np.allclose(U, want, rtol=0.0, atol=1e-14 * np.abs(want).max())
+    clamped = rng.normal(size=(n, k))
+    plate_only = clamped.copy()
+    plate_only[0:n1:2] += z[0] - loc[1, 0::2, None] * z[2]
+    plate_only[1:n1:2] += z[1] + loc[0, 1::2, None] * z[2]
+    fields.add_motions(clamped, loc, None, z)
+    assert np.array_equal(clamped, plate_only)  # no far field: the plate's motion alone
