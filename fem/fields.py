@@ -288,7 +288,7 @@ def mode_projection_operators(scalar, components: Sequence[int], E: float, nu: f
         w = np.array([wa[sl] for wa in weight])  # (4, e, q)
         for out, c in zip(data, components, strict=True):
             local = np.einsum("aeq,eqj->eaj", w, mode_strain_values(block, STRAIN_PARTS[c], T, G))
-            out += np.bincount(where[sl].ravel(), weights=local.ravel(), minlength=out.size)
+            np.add.at(out, where[sl].ravel(), local.ravel())  # O(block), not O(nnz)
     return [csr_matrix((d, indices, indptr), shape=(scalar.N, vec.N)) for d in data]
 
 
