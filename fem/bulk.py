@@ -121,7 +121,8 @@ class Discretisation:
     bases: per body, the vector dof numbering (:class:`VectorDofs`); scalar_bases: per body,
     the scalar skfem basis (quadrature data for the stress projection and the mass matrix;
     :class:`ScalarBases`, built when first asked for). stiffness: (K1, K2); None in a
-    history's model and result (``fem.history.build_model`` drops them once factorised).
+    history's model and result (:func:`split_stiffness` cuts the blocks the history reads and
+    the driver drops the matrices before the factorisation).
     fixed: prescribed dofs of body 1 (top, or the whole outer boundary with
     boundary='half-plane') and body 2 (bottom, or its whole outer boundary).
     E, nu: material; order: element order; incompatible: Q1 elements carry incompatible modes
