@@ -70,8 +70,7 @@ class FieldRecovery:
             U[model.free] = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2,
                                                           lam))
         N1 = disc.bases[0].N
-        far = None if model.far is None else (model.far.fields, model.far.R @ lam)
-        add_motions(U, disc.bases[0].doflocs, far, np.array([s.z for s in states]).T)
+        add_motions(U, disc.bases[0].doflocs, model.far, lam, np.array([s.z for s in states]).T)
         U1, U2 = U[:N1], U[N1:]  # views: no second copy of the fields
         return cls(disc, U1, U2, model.factor.backend, model.reaction_rows)
 
@@ -143,17 +142,19 @@ class FieldRecovery:
         return [np.ascontiguousarray(S[:, j::k].T) for j in range(k)]
 
 
-def add_motions(U: np.ndarray, loc: np.ndarray, far: tuple | None, z: np.ndarray) -> None:
+def add_motions(U: np.ndarray, loc: np.ndarray, far, lam: np.ndarray, z: np.ndarray) -> None:
     """Add to the recovered fields U (all dofs of both bodies x increments, C order) the far
-    field ``fields @ moments`` (``far``; ``fem.farfield.FarField``, None: clamped bodies) and
-    body 1's rigid motion with the plate ``u = u_p - theta y, v = v_p + theta x`` (``z`` (3,
-    increments), ``loc`` body 1's (2, N1) dof coordinates), by blocks of MOTION_ROWS rows
-    of all increments: contiguous rows of U, no full-field temporary (issue 28)."""
+    field of the pair forces ``lam`` (``far``: ``fem.farfield.FarField``, None: clamped
+    bodies; its :meth:`displacement`) and body 1's rigid motion with the plate ``u = u_p -
+    theta y, v = v_p + theta x`` (``z`` (3, increments), ``loc`` body 1's (2, N1) dof
+    coordinates), by blocks of MOTION_ROWS rows of all increments: contiguous rows of U, no
+    full-field temporary (issue 28)."""
     n1 = loc.shape[1]
+    moments = None if far is None else far.R @ lam
     for r0 in range(0, U.shape[0], MOTION_ROWS):
         r1 = min(r0 + MOTION_ROWS, U.shape[0])
         if far is not None:
-            U[r0:r1] += far[0][r0:r1] @ far[1]
+            U[r0:r1] += far.fields[r0:r1] @ moments
         if r0 < n1:  # body 1's x dofs at even rows, y dofs at odd ones (MOTION_ROWS even)
             b1 = min(r1, n1)
             U[r0:b1:2] += z[0] - loc[1, r0:b1:2, None] * z[2]

@@ -165,12 +165,12 @@ def test_far_field_and_plate_motion_are_added_by_blocks_of_rows(monkeypatch, row
     want[0:n1:2] += z[0] - loc[1, 0::2, None] * z[2]
     want[1:n1:2] += z[1] + loc[0, 1::2, None] * z[2]
     buffer = U
-    fields.add_motions(U, loc, (far.fields, far.R @ lam), z)
+    fields.add_motions(U, loc, far, lam, z)
     assert U is buffer
     assert np.allclose(U, want, rtol=0.0, atol=1e-14 * np.abs(want).max())
     clamped = rng.normal(size=(n, k))
     plate_only = clamped.copy()
     plate_only[0:n1:2] += z[0] - loc[1, 0::2, None] * z[2]
     plate_only[1:n1:2] += z[1] + loc[0, 1::2, None] * z[2]
-    fields.add_motions(clamped, loc, None, z)
+    fields.add_motions(clamped, loc, None, lam, z)
     assert np.array_equal(clamped, plate_only)  # no far field: the plate's motion alone
