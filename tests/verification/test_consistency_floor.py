@@ -48,8 +48,17 @@ def test_moment_self_check_passes_with_a_margin(seed: int) -> None:
 
 def test_scaled_rows_alone_leave_the_moment_refused(monkeypatch) -> None:
     """With CONSISTENCY_TOL infinite (Newton stops on its scaled rows only, as before) the
-    self-check refuses seed 100797's moment: the gate is what makes it pass."""
+    self-check refuses the moment of at least one of the three seeds: the gate is what makes
+    them all pass.  Which one lands above MOMENT_TOL depends on the BLAS kernels' rounding
+    (seed 100797 with Skylake-X kernels; 100836, 4.3e-9, on an AMD EPYC, where 100797 ends
+    at 4.5e-13 and 108471 at 2.9e-11)."""
     monkeypatch.setattr(_newton, "CONSISTENCY_TOL", math.inf)
-    case = cases.make_case(SEEDS[0])
-    with pytest.raises(ConvergenceError, match="moment"):
-        analytic.solve_normal(case.profile, case.P, case.A, case.M)
+    refused = []
+    for seed in SEEDS:
+        case = cases.make_case(seed)
+        try:
+            analytic.solve_normal(case.profile, case.P, case.A, case.M)
+        except ConvergenceError as exc:
+            assert "moment" in str(exc)
+            refused.append(seed)
+    assert refused
