@@ -16,10 +16,10 @@ export MPLBACKEND := Agg
 .PHONY: test run sysdeps fastsolver lint bench slow clean
 
 # The stamp depends on everything that decides what gets installed.  The first set-up says what
-# it does and how long it took (pip: ~1.1 GB into .venv, VTK alone 0.57 GB).
+# it does and how long it took (pip: ~1.2 GB into .venv, VTK alone 0.57 GB).
 $(STAMP): pyproject.toml Makefile .ci/sysdeps.sh .ci/fastsolver.sh
 	@echo "multicontact: set-up: installing the Python packages into $(VENV) (numpy, scipy," \
-	  "scikit-fem, VTK/pyvista, matplotlib, dask, pytest: ~1.1 GB; typically 2-5 min, once)"
+	  "scikit-fem, VTK/pyvista, matplotlib, dask, pytest, gmsh: ~1.2 GB; typically 2-5 min, once)"
 	@t0=$$(date +%s); $(PYTHON) -m venv $(VENV) && \
 	  $(PY) -m pip install -q --upgrade pip && \
 	  $(PY) -m pip install -q -e ".[test,cluster]" && \

@@ -4,13 +4,14 @@
 # supernodes run on the system BLAS; Debian's reference libblas3 makes the level-6 history 2.3x
 # slower, benchmarks/bench_fem.py; installing OpenBLAS switches the libblas.so.3 alternative in
 # auto mode), the Python headers of the interpreter $PYTHON (default python3; scikit-sparse
-# compiles against its Python.h) and Chromium (the HTML report test renders the report headless).
+# compiles against its Python.h), Chromium (the HTML report test renders the report headless) and
+# the X/GLU libraries gmsh's wheel links (the tests mesh meshes/*.geo with it).
 # As root: installs what is missing.  Otherwise: prints exactly what is missing and the command to
 # install it, and carries on (features degrade with a clear message; the tests that need them
 # skip with the reason).
 set -u
 PYTHON=${PYTHON:-python3}
-PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri libglx-mesa0 libgl1 libxrender1 libxt6 libxext6 libx11-6 libsuitesparse-dev libopenblas0-serial chromium calculix-ccx"
+PKGS="libegl1 libegl-mesa0 libgl1-mesa-dri libglx-mesa0 libgl1 libxrender1 libxt6 libxext6 libx11-6 libsuitesparse-dev libopenblas0-serial chromium calculix-ccx libglu1-mesa libxcursor1 libxft2 libxinerama1 libfontconfig1 libopengl0"
 
 # The Debian package holding Python.h of $PYTHON, if it is missing and Debian's to give.
 python_headers() {

@@ -23,6 +23,8 @@ from .rings import convex, ring_body
 from .settings import MeshFile, MeshSpec, validate_mesh_spec
 
 BOUNDARY_NAMES = ("contact_upper", "contact_lower", "top", "bottom")
+#: Surface cells (meshio names) a mesh file may not hold: fem's bodies are 4-node quads only.
+NON_QUAD_CELLS = ("triangle", "triangle6", "triangle7", "quad8", "quad9", "polygon")
 #: Relative tolerance (to the smallest interface element) for matching node x.
 MATCH_TOL = 1e-6
 #: Nodes with |y| below this (length) lie on the interface line y = 0.
@@ -293,6 +295,17 @@ def read_mesh(spec: MeshFile) -> TwoBodyMesh:
     if not path.is_file():
         raise InputError(f"mesh file {str(path)!r} does not exist")
     m = meshio.read(path)
+    others = {c.type: 0 for c in m.cells if c.type in NON_QUAD_CELLS}
+    for c in m.cells:
+        if c.type in others:
+            others[c.type] += len(c.data)
+    if others:
+        found = ", ".join(f"{n} '{t}'" for t, n in others.items())
+        raise InputError(
+            f"mesh file {str(path)!r} has {found} cells: fem reads meshes of 4-node 'quad' cells "
+            "only (no holes where other cells were dropped; recombine into quads, e.g. gmsh's "
+            "Mesh.SubdivisionAlgorithm = 1, or take the element order from MeshFile(order=))"
+        )
     quads = np.concatenate([c.data for c in m.cells if c.type == "quad"] or [np.zeros((0, 4), int)])
     if quads.shape[0] == 0:
         raise InputError(f"mesh file {str(path)!r} has no 'quad' cells: need a quad mesh")

@@ -49,6 +49,22 @@ def test_msh_round_trip_and_missing_boundary(tmp_path):
         read_mesh(fem.MeshFile(bad))
 
 
+def test_mesh_file_with_triangles_is_refused(tmp_path):
+    """A mixed file's triangles would leave holes in the bodies if dropped: one clear error."""
+    import meshio
+
+    m = build_mesh(fem.MeshSpec(level=-2), (-1.0, 1.0))
+    good = meshio.read(write_msh(m, tmp_path / "two.msh"))
+    quads = next(c for c in good.cells if c.type == "quad").data
+    cells = [*good.cells, meshio.CellBlock("triangle", quads[:2, :3])]
+    data = {k: [*v, np.zeros(2, dtype=v[0].dtype)] for k, v in good.cell_data.items()}
+    mixed = meshio.Mesh(good.points, cells, cell_data=data, field_data=good.field_data)
+    path = tmp_path / "mixed.msh"
+    meshio.write(path, mixed, file_format="gmsh22", binary=False)
+    with pytest.raises(fem.InputError, match="2 'triangle' cells: fem reads meshes of 4-node"):
+        read_mesh(fem.MeshFile(path))
+
+
 def test_non_matching_interface_rejected(tmp_path):
     from skfem import MeshQuad
 

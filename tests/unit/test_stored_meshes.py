@@ -19,7 +19,8 @@ E, NU, R, P = 1.0, 0.3, 100.0, 0.01
 A_HERTZ = np.sqrt(2 * 4 * (1 - NU**2) / E * P * R / np.pi)
 #: gmsh puts a block corner exactly on each kink (measured offset 0.0).
 KINK_ATOL = 1e-12
-ROW = re.compile(r"^\| ((\w+?)(_tensor)?_L(\d+)) \|.*\|$", re.MULTILINE)
+#: Rows of the README table of fem's generator (not the graded gmsh table: gmsh's own meshes).
+ROW = re.compile(r"^\| ((?!\w*_graded_)(\w+?)(_tensor)?_L(\d+)) \|.*\|$", re.MULTILINE)
 #: fem writes its .msh node coordinates to 16 significant digits (measured offset 0).
 WRITE_RTOL = 1e-15
 
@@ -97,8 +98,30 @@ def test_grid_offset_sees_a_moved_node():
     assert gen.grid_offset(gen.reference_mesh("hertz", 1), mesh) == np.inf
 
 
+def test_graded_geo_parameters_are_the_ring_defaults():
+    spec = fem.MeshSpec()
+    assert spec.layout == "rings"
+    for case in gen.CASES:
+        p = gen.geo_parameters(case, "graded")
+        assert (p["level"], p["layout"], p["n_window"]) == (0, 1, N_WINDOW_LEVEL0)
+        assert (p["growth"], p["margin"], p["size_factor"]) == (
+            spec.growth, spec.margin, spec.size_factor)
+        for level in (0, 2):  # the rings' rate: fem.mesh.near_growth
+            _, rate, _, _ = gen.graded_law(p, level)
+            assert rate == fem.mesh.near_growth(fem.MeshSpec(level=level))
+
+
 def test_generate_without_gmsh_says_how_to_get_it(monkeypatch):
     monkeypatch.delenv("GMSH", raising=False)
     monkeypatch.setenv("PATH", "")
+    monkeypatch.setattr(gen, "gmsh_module_available", lambda: False)
     with pytest.raises(SystemExit, match="pip install gmsh"):
-        gen.gmsh_executable()
+        gen.gmsh_command()
+
+
+def test_gmsh_command_prefers_gmsh_env_then_the_module(monkeypatch):
+    monkeypatch.setenv("GMSH", "/opt/gmsh/bin/gmsh")
+    assert gen.gmsh_command() == ["/opt/gmsh/bin/gmsh"]
+    monkeypatch.delenv("GMSH")
+    monkeypatch.setattr(gen, "gmsh_module_available", lambda: True)
+    assert gen.gmsh_command()[1:] == ["-c", gen.GMSH_MAIN]
