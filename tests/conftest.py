@@ -32,6 +32,19 @@ settings.register_profile(
 )
 settings.load_profile("multicontact")
 
+@pytest.fixture(scope="session")
+def gen():
+    """meshes/generate.py as a module (meshes/ is not a package)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "meshes" / "generate.py"
+    spec = importlib.util.spec_from_file_location("meshes_generate", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 ZONE_QUAD_NODES = 400
 """Gauss-Jacobi nodes per zone: the smooth factor p / (edge weights) is analytic in the zone,
 with its nearest singularity at the neighbouring zone's edge; 400 nodes reach roundoff for

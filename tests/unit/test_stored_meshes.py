@@ -3,7 +3,6 @@ ring layout) and the README table agree with each other and with fem's generator
 needed: meshes/generate.py checks the meshes it makes from the .geo against the same
 generator)."""
 
-import importlib.util
 import re
 from pathlib import Path
 
@@ -25,17 +24,6 @@ ROW = re.compile(r"^\| ((?!\w*_graded_)(\w+?)(_tensor)?_L(\d+)) \|.*\|$", re.MUL
 WRITE_RTOL = 1e-15
 
 
-def load_generate():
-    """meshes/generate.py as a module (meshes/ is not a package)."""
-    spec = importlib.util.spec_from_file_location("meshes_generate", MESHES / "generate.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-gen = load_generate()
-
-
 def readme_rows() -> dict:
     """README table rows by mesh name -> (case, level, layout, row text)."""
     text = (MESHES / "README.md").read_text()
@@ -43,7 +31,7 @@ def readme_rows() -> dict:
             for m in ROW.finditer(text)}
 
 
-def test_geo_parameters_are_the_fem_defaults():
+def test_geo_parameters_are_the_fem_defaults(gen):
     spec = fem.MeshSpec(layout="tensor")
     for case in gen.CASES:
         p = gen.geo_parameters(case)
@@ -62,7 +50,7 @@ def test_geo_parameters_are_the_fem_defaults():
     assert (wedge["xmin"], wedge["xmax"], wedge["kinks"]) == (-1.6, 1.6, (-1.0, 0.0, 1.0))
 
 
-def test_readme_table_is_the_generator_at_the_geo_parameters():
+def test_readme_table_is_the_generator_at_the_geo_parameters(gen):
     rows = readme_rows()
     assert sorted(rows) == sorted(gen.mesh_name(c, lv, layout) for c in gen.CASES
                                   for lv in gen.LEVELS for layout in ("rings", "tensor"))
@@ -73,7 +61,7 @@ def test_readme_table_is_the_generator_at_the_geo_parameters():
 
 
 @pytest.mark.parametrize("case", ["hertz", "double_wedge"])
-def test_stored_mesh_is_the_default_ring_grid(case):
+def test_stored_mesh_is_the_default_ring_grid(gen, case):
     path = MESHES / f"{case}_L0.msh"
     if not path.is_file():
         pytest.fail(f"stored mesh {path} missing: run python meshes/generate.py 0")
@@ -89,7 +77,7 @@ def test_stored_mesh_is_the_default_ring_grid(case):
         assert all(np.min(np.abs(x - k)) < KINK_ATOL for k in p["kinks"])
 
 
-def test_grid_offset_sees_a_moved_node():
+def test_grid_offset_sees_a_moved_node(gen):
     mesh = gen.reference_mesh("hertz", 0)
     moved = gen.reference_mesh("hertz", 0)
     moved.bodies[0].p[0, 7] += 1e-6
@@ -98,7 +86,7 @@ def test_grid_offset_sees_a_moved_node():
     assert gen.grid_offset(gen.reference_mesh("hertz", 1), mesh) == np.inf
 
 
-def test_graded_geo_parameters_are_the_ring_defaults():
+def test_graded_geo_parameters_are_the_ring_defaults(gen):
     spec = fem.MeshSpec()
     assert spec.layout == "rings"
     for case in gen.CASES:
@@ -111,7 +99,7 @@ def test_graded_geo_parameters_are_the_ring_defaults():
             assert rate == fem.mesh.near_growth(fem.MeshSpec(level=level))
 
 
-def test_generate_without_gmsh_says_how_to_get_it(monkeypatch):
+def test_generate_without_gmsh_says_how_to_get_it(gen, monkeypatch):
     monkeypatch.delenv("GMSH", raising=False)
     monkeypatch.setenv("PATH", "")
     monkeypatch.setattr(gen, "gmsh_module_available", lambda: False)
@@ -119,7 +107,7 @@ def test_generate_without_gmsh_says_how_to_get_it(monkeypatch):
         gen.gmsh_command()
 
 
-def test_gmsh_command_prefers_gmsh_env_then_the_module(monkeypatch):
+def test_gmsh_command_prefers_gmsh_env_then_the_module(gen, monkeypatch):
     monkeypatch.setenv("GMSH", "/opt/gmsh/bin/gmsh")
     assert gen.gmsh_command() == ["/opt/gmsh/bin/gmsh"]
     monkeypatch.delenv("GMSH")

@@ -4,15 +4,12 @@ cases, and fem.MeshFile reads them and reproduces Hertz (closed form: Johnson, C
 1985, Sec. 5.5, ``a = sqrt(2 A P R / pi)``, ``p0 = a / (A R)``).  Needs gmsh (the ``test``
 extra); skipped with the reason when its module cannot be loaded."""
 
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import fem
 
-MESHES = Path(__file__).resolve().parents[2] / "meshes"
 E, NU, R, P, MU = 1.0, 0.3, 100.0, 0.01, 0.5
 A = 4 * (1 - NU**2) / E
 A_HERTZ = np.sqrt(2 * A * P * R / np.pi)
@@ -26,19 +23,8 @@ WIDTH_TOL_L0 = 2.5e-3
 PEAK_TOL_L0 = 1.5e-3
 
 
-def load_generate():
-    """meshes/generate.py as a module (meshes/ is not a package)."""
-    spec = importlib.util.spec_from_file_location("meshes_generate", MESHES / "generate.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-gen = load_generate()
-
-
 @pytest.fixture(scope="module")
-def gmsh():
+def gmsh(gen):
     """The command that runs gmsh; skip when gmsh's module or its libraries are missing."""
     try:
         import gmsh as _  # noqa: F401  (its shared library needs libGLU, .ci/sysdeps.sh)
@@ -48,7 +34,7 @@ def gmsh():
 
 
 @pytest.fixture(scope="module")
-def graded(gmsh, tmp_path_factory):
+def graded(gen, gmsh, tmp_path_factory):
     """{(case, level): TwoBodyMesh} of the graded gmsh meshes, written to a temporary folder."""
     tmp = tmp_path_factory.mktemp("graded")
     out = {}
@@ -59,7 +45,7 @@ def graded(gmsh, tmp_path_factory):
     return out
 
 
-def test_graded_meshes_pass_the_checks(graded):
+def test_graded_meshes_pass_the_checks(gen, graded):
     for (case, level), (_, mesh) in graded.items():
         params = gen.geo_parameters(case, "graded")
         assert gen.check_graded(mesh, params, level) == []
@@ -68,7 +54,7 @@ def test_graded_meshes_pass_the_checks(graded):
               f"{ratio.max():.3f}")
 
 
-def test_graded_meshes_are_finer_with_the_level(graded):
+def test_graded_meshes_are_finer_with_the_level(gen, graded):
     for case in gen.CASES:
         coarse, fine = graded[case, 0][1], graded[case, 1][1]
         # h halves (the kinks' pieces round their spacing down to <= h: 0.5-0.53 measured);
@@ -77,13 +63,13 @@ def test_graded_meshes_are_finer_with_the_level(graded):
         assert 2.0 < fine.n_elements / coarse.n_elements < 4.0
 
 
-def test_check_graded_sees_a_mesh_of_another_level(graded):
+def test_check_graded_sees_a_mesh_of_another_level(gen, graded):
     mesh = graded["hertz", 0][1]
     wrong = gen.check_graded(mesh, gen.geo_parameters("hertz", "graded"), 1)
     assert any("window spacing" in w for w in wrong)
 
 
-def test_check_graded_sees_an_element_off_the_law(graded):
+def test_check_graded_sees_an_element_off_the_law(gen, graded):
     mesh = graded["double_wedge", 0][1]
     params = dict(gen.geo_parameters("double_wedge", "graded"), growth=1.02)
     wrong = gen.check_graded(mesh, params, 0)
@@ -103,7 +89,7 @@ def test_graded_mesh_reproduces_hertz(graded):
     assert width < WIDTH_TOL_L0 and peak < PEAK_TOL_L0
 
 
-def test_gmsh_error_is_reported(gmsh, tmp_path):
+def test_gmsh_error_is_reported(gen, gmsh, tmp_path):
     with pytest.raises(SystemExit, match="fine_rows"):
         gen.run_gmsh(gmsh, "hertz", 0, "graded", tmp_path / "bad.msh", fine_rows=3)
     assert not list(tmp_path.iterdir())  # nothing half-written
