@@ -295,10 +295,10 @@ def read_mesh(spec: MeshFile) -> TwoBodyMesh:
     if not path.is_file():
         raise InputError(f"mesh file {str(path)!r} does not exist")
     m = meshio.read(path)
-    others = {c.type: 0 for c in m.cells if c.type in NON_QUAD_CELLS}
+    others: dict[str, int] = {}
     for c in m.cells:
-        if c.type in others:
-            others[c.type] += len(c.data)
+        if c.type in NON_QUAD_CELLS:
+            others[c.type] = others.get(c.type, 0) + len(c.data)
     if others:
         found = ", ".join(f"{n} '{t}'" for t, n in others.items())
         raise InputError(
