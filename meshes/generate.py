@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 import fem
-from fem.mesh import TwoBodyMesh, build_mesh, read_mesh, write_msh
+from fem.mesh import TwoBodyMesh, build_mesh, near_growth, read_mesh, write_msh
 
 HERE = Path(__file__).resolve().parent
 CASES = ("hertz", "double_wedge")
@@ -178,7 +178,7 @@ def graded_law(params: dict, level: int) -> tuple[float, float, float, float]:
     (fem.mesh.near_growth) and the widened window."""
     w = params["xmax"] - params["xmin"]
     h = w / (params["n_window"] * 2.0**level)
-    rate = 1.0 + (params["growth"] - 1.0) * 2.0 ** (-(level + 1) / 2)
+    rate = near_growth(fem.MeshSpec(level=level, growth=params["growth"]))
     return h, rate, params["xmin"] - params["margin"] * w, params["xmax"] + params["margin"] * w
 
 
@@ -234,31 +234,20 @@ def write_rings(case: str, level: int) -> Path:
     return write_msh(reference_mesh(case, level, "rings"), HERE / f"{case}_L{level}.msh")
 
 
-def checked_gmsh_mesh(gmsh: list[str], case: str, level: int, layout: str) -> TwoBodyMesh:
-    """Mesh ``<case>.geo`` with gmsh, read it back and check it (tensor: fem's grid to
+def checked_mesh(gmsh: list[str], case: str, level: int, layout: str) -> TwoBodyMesh:
+    """Write ``<case>``'s mesh of ``layout`` at ``level`` (rings: fem's writer; graded, tensor:
+    gmsh from the .geo), read it back and check it (rings, tensor: fem's generator grid to
     GRID_RTOL; graded: :func:`check_graded`); SystemExit on a mesh that fails."""
-    path = run_gmsh(gmsh, case, level, layout)
+    path = write_rings(case, level) if layout == "rings" else run_gmsh(gmsh, case, level, layout)
     mesh = read_mesh(fem.MeshFile(path))
     if layout == "graded":
         wrong = check_graded(mesh, geo_parameters(case, "graded"), level)
-        if wrong:
-            raise SystemExit(f"{path.name}: {'; '.join(wrong)}")
-        return mesh
-    offset = grid_offset(mesh, reference_mesh(case, level, layout))
-    if offset > GRID_RTOL:
-        raise SystemExit(
-            f"{path.name} is not fem's generator grid: nodes off by "
-            f"{offset:.3g} W > GRID_RTOL = {GRID_RTOL:g}"
-        )
-    return mesh
-
-
-def checked_rings(case: str, level: int) -> TwoBodyMesh:
-    """Write fem's ring mesh of ``<case>``, read it back, check it is the generator's grid."""
-    mesh = read_mesh(fem.MeshFile(write_rings(case, level)))
-    offset = grid_offset(mesh, reference_mesh(case, level, "rings"))
-    if offset > GRID_RTOL:
-        raise SystemExit(f"{case}_L{level}.msh is not fem's ring grid: nodes off by {offset:.3g} W")
+    else:
+        offset = grid_offset(mesh, reference_mesh(case, level, layout))
+        wrong = ([f"not fem's generator grid: nodes off by {offset:.3g} W > GRID_RTOL = "
+                  f"{GRID_RTOL:g}"] if offset > GRID_RTOL else [])
+    if wrong:
+        raise SystemExit(f"{path.name}: {'; '.join(wrong)}")
     return mesh
 
 
@@ -270,8 +259,7 @@ def main(levels=LEVELS, layout: str = "rings") -> list[str]:
     for case in CASES:
         params = geo_parameters(case)
         for level in levels:
-            mesh = (checked_rings(case, level) if layout == "rings"
-                    else checked_gmsh_mesh(gmsh, case, level, layout))
+            mesh = checked_mesh(gmsh, case, level, layout)
             window = (params["xmin"], params["xmax"])
             rows.append(table_row(mesh_name(case, level, layout), window, mesh))
     return rows
