@@ -11,6 +11,8 @@ rigid loading plate) and ``bottom`` (body 2, y = -H, clamped).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -32,6 +34,8 @@ INTERFACE_ATOL = 1e-12
 #: Depth (multiple of the widest window) of the near-field grading under the contact: at 0.5
 #: the Hertz width stayed 0.033 % short at level 1, at 2 0.020 %, at 4 0.019 % (1.1x the dofs).
 NEAR_DEPTH = 2.0
+#: What a mesh file may be (read_meshio's error).
+MESHIO_ALLOWED = "a file in a format meshio reads, named by its extension (.msh, .vtu, .inp, ...)"
 
 
 @dataclass(frozen=True)
@@ -289,12 +293,10 @@ def finish(upper: MeshQuad, lower: MeshQuad, nodes: dict, source: str) -> TwoBod
 
 def read_mesh(spec: MeshFile) -> TwoBodyMesh:
     """Read a meshio file with two disconnected quad bodies and named boundaries."""
-    import meshio
-
     path = Path(spec.path)
     if not path.is_file():
         raise InputError(f"mesh file {str(path)!r} does not exist")
-    m = meshio.read(path)
+    m = read_meshio(path)
     others: dict[str, int] = {}
     for c in m.cells:
         if c.type in NON_QUAD_CELLS:
@@ -331,6 +333,27 @@ def read_mesh(spec: MeshFile) -> TwoBodyMesh:
                 raise InputError(f"boundary {name} of {str(path)!r} lies on the wrong body")
             nodes[name] = idx
     return finish(meshes["contact_upper"], meshes["contact_lower"], nodes, str(path))
+
+
+def read_meshio(path: Path, what: str = "mesh file", allowed: str = MESHIO_ALLOWED):
+    """``meshio.read(path)`` as a library call: the mesh, or one InputError naming the file.
+
+    meshio (5.3) tries every reader its extension allows (``.msh``: ansys, then gmsh) and prints
+    each one's failure to stdout (a blank line when the ansys reader turns down a gmsh file);
+    when none reads the file it prints an error and ends the process (``sys.exit(1)``), and an
+    unknown extension raises its own ReadError.  Its output is captured here and goes into the
+    error if the file cannot be read; ``what`` names the file in it, ``allowed`` what it may be."""
+    import meshio
+
+    said = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            return meshio.read(path)
+    except SystemExit:
+        why = " ".join(said.getvalue().split()) or "no reader took it"
+    except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file
+        why = f"{type(exc).__name__}: {exc}"
+    raise InputError(f"{what} {str(path)!r} cannot be read by meshio ({why}); allowed: {allowed}")
 
 
 def named_line_nodes(m, path: Path) -> dict:

@@ -24,6 +24,8 @@ from compare.external.exchange import (
     check_columns,
     parse_header,
 )
+from fem.errors import InputError
+from fem.mesh import read_meshio
 
 
 def pvd_entries(path: Path) -> list[tuple[str, str]]:
@@ -38,16 +40,17 @@ def pvd_entries(path: Path) -> list[tuple[str, str]]:
     return [(d.attrib.get("part", "0"), d.attrib["file"]) for d in sets]
 
 
-def _read_vtu(path: Path, where: str):
-    import meshio
+#: What an interface file of a series may be (the reader's error).
+VTU_ALLOWED = "a VTK XML unstructured grid (.vtu) of line cells, as fem.write_vtk writes"
 
+
+def _read_vtu(path: Path, where: str):
     if not path.is_file():
         raise CaseError(f"{where}: file '{path.name}' not found")
     try:
-        return meshio.read(path)
-    except Exception as exc:  # noqa: BLE001 - any reader failure is bad input
-        raise CaseError(f"{where}: cannot read '{path.name}' ({type(exc).__name__}: {exc})"
-                        ) from None
+        return read_meshio(path, "interface file", VTU_ALLOWED)
+    except InputError as exc:
+        raise CaseError(f"{where}: {exc}") from None
 
 
 def _is_interface(mesh) -> bool:

@@ -221,6 +221,17 @@ def test_vtk_series_missing_file_and_no_interface(tmp_path):
         read_result(pvd)
 
 
+
+def test_unreadable_vtu_in_series_one_clear_error(tmp_path, capsys):
+    """A corrupt interface file: one CaseError naming the step and the file (meshio alone
+    would print and end the process)."""
+    pvd = write_series(tmp_path / "s")
+    (tmp_path / "s" / "i1.vtu").write_text("<VTKFile>cut off")
+    with pytest.raises(CaseError, match=r"step 1 \(i1.vtu\): interface file .*i1.vtu' cannot be "
+                       r"read by meshio .*allowed: a VTK XML unstructured grid"):
+        read_result(pvd)
+    assert capsys.readouterr() == ("", "")
+
 def test_applied_moment_must_match(tmp_path):
     """An applied-moment case: the result's M at the end of stage 1 is checked against it."""
     from dataclasses import replace

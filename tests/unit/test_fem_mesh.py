@@ -49,6 +49,30 @@ def test_msh_round_trip_and_missing_boundary(tmp_path):
         read_mesh(fem.MeshFile(bad))
 
 
+
+@pytest.mark.parametrize("name, text, words", [
+    ("garbage.msh", "not a mesh\n", "as either of ansys, gmsh"),
+    ("cut.msh", "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0\n", "ValueError: cannot"),
+    ("mesh.xyz", "1 2 3\n", "Could not deduce file format"),
+])
+def test_unreadable_mesh_file_one_error_nothing_printed(tmp_path, capsys, name, text, words):
+    """meshio prints its readers' failures and ends the process (sys.exit) on a file none
+    reads: read_mesh must raise one InputError instead, and print nothing."""
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(fem.InputError, match=f"mesh file .*{name}' cannot be read by meshio") as e:
+        read_mesh(fem.MeshFile(path))
+    assert words in str(e.value) and "allowed: a file in a format meshio reads" in str(e.value)
+    assert capsys.readouterr() == ("", "")
+
+
+def test_gmsh_file_read_without_printing(tmp_path, capsys):
+    """A good gmsh file is read without the blank line meshio's ansys reader prints."""
+    path = write_msh(build_mesh(fem.MeshSpec(level=-2), (-1.0, 1.0)), tmp_path / "two.msh")
+    capsys.readouterr()
+    read_mesh(fem.MeshFile(path))
+    assert capsys.readouterr() == ("", "")
+
 def test_mesh_file_with_triangles_is_refused(tmp_path):
     """A mixed file's triangles would leave holes in the bodies if dropped: one clear error."""
     import meshio
