@@ -192,6 +192,7 @@ def _settings(items: Sequence[str] | None) -> dict:
 
 
 def cmd_verify(args) -> int:
+    from compare.convergence import study_values
     from compare.fileio import plan_output
     from compare.testing import format_checks
     from compare.verify import measurement_lines, verify, write_verify_report
@@ -199,6 +200,8 @@ def cmd_verify(args) -> int:
     if args.out:  # refused before anything is computed
         plan_output(args.out, "verify", args.force)
     if len(args.result) > 1:
+        if args.out:
+            study_values("h", args.fem_levels)
         return _verify_sequence(args)
     res = verify(args.case, args.result[0], samples=args.samples, settings=_settings(args.set))
     report = write_verify_report(res, args.out, force=args.force) if args.out else None
@@ -258,12 +261,19 @@ def cmd_report(args) -> int:
     import time
 
     from compare.cases import load_case
+    from compare.convergence import study_values
     from compare.fileio import plan_output
-    from compare.report import DEFAULT_CONVERGENCE, DEFAULT_SUITE, REPORT_FILES, write_report
+    from compare.report import (
+        DEFAULT_CONVERGENCE,
+        DEFAULT_STUDY_LEVELS,
+        DEFAULT_SUITE,
+        REPORT_FILES,
+        write_report,
+    )
 
     cases = [load_case(c) for c in args.cases or DEFAULT_SUITE]  # bad input: before the banner
-    conv = DEFAULT_CONVERGENCE if args.convergence is None else {
-        n: tuple(args.levels) for n in args.convergence}
+    studied = DEFAULT_CONVERGENCE if args.convergence is None else args.convergence
+    conv = {n: tuple(study_values("h", args.levels or DEFAULT_STUDY_LEVELS)) for n in studied}
     plan_output(args.out, "report", args.force, expected=REPORT_FILES)
     total = len(cases) + len(conv) + (0 if args.no_fig5 else 1)
     t0 = time.perf_counter()
@@ -378,8 +388,8 @@ def parser() -> argparse.ArgumentParser:
     sp.add_argument("-o", "--out", default="report", help="output directory (default report)")
     sp.add_argument("--convergence", nargs="*", metavar="CASE",
                     help="cases with an h-convergence study (default: hertz; none if empty)")
-    sp.add_argument("--levels", type=int, nargs="+", default=[-1, 0, 1],
-                    help="levels of the convergence studies")
+    sp.add_argument("--levels", type=int, nargs="+",
+                    help="levels of the convergence studies (default -1 0 1)")
     sp.add_argument("--no-fig5", action="store_true", help="skip the paper Fig. 5 study page")
     _vtk_steps(sp)
     _force(sp)

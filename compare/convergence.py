@@ -63,6 +63,7 @@ import numpy as np
 from compare import metrics as mt
 from compare.analytic_side import solve_case
 from compare.cases import Case, load_case
+from compare.errors import CaseError
 from compare.run import CaseResult, run_case
 from compare.tolerances import EDGE_RTOL
 
@@ -293,11 +294,35 @@ def _failure(orders: dict, errors: dict, stall: str, kind: str, shift: float) ->
     return "error not smaller at the finest run: " + ", ".join(grew) if grew else ""
 
 
-def _values(kind: str, levels: Sequence[int], values: Sequence[float] | None) -> list:
-    if kind == "h":
-        return list(levels)
+#: What each kind of study refines, for study_values' errors.
+_REFINED = {"h": "levels, each finer than the last (increasing integers, e.g. 0 1 2)",
+            "penalty": "penalty factors > 0, each stiffer than the last (increasing; inf: "
+                       "the augmented Lagrangian, last), e.g. 100 1e4 inf",
+            "domain": "size factors >= 2, each larger than the last (increasing), e.g. 6 12 25"}
+
+
+def study_values(kind: str, levels: Sequence[int] = (0, 1, 2),
+                 values: Sequence[float] | None = None) -> list:
+    """The runs of a study of ``kind``: ``levels`` for 'h', ``values`` (or their defaults) for
+    'penalty' and 'domain'; CaseError unless there are at least two, in refining order (orders,
+    the stall and the verdict read the last run as the finest), levels whole numbers."""
+    if kind not in KINDS:
+        raise CaseError(f"kind={kind!r} is not allowed: need one of {', '.join(KINDS)}")
     default = (100.0, 1e4, math.inf) if kind == "penalty" else (6.0, 12.0, 25.0)
-    return list(values or default)
+    vals = list(levels) if kind == "h" else list(default if values is None else values)
+    num = np.array(vals, float) if vals else np.zeros(0)
+    with np.errstate(invalid="ignore"):  # inf - inf: nan, refused as not increasing
+        steps = np.diff(num)
+    bad = (num.size < 2 or not np.all(steps > 0)
+           or (kind != "penalty" and not np.all(np.isfinite(num)))
+           or (kind == "h" and not np.all(num == np.round(num)))
+           or (kind == "penalty" and not num[0] > 0))
+    if bad:
+        what = "levels" if kind == "h" else "values"
+        raise CaseError(f"{what}={' '.join(f'{v:g}' for v in num)} is not allowed for "
+                        f"{'an' if kind == 'h' else 'a'} {kind}-study: need at least two "
+                        f"{_REFINED[kind]}")
+    return [int(v) for v in vals] if kind == "h" else [float(v) for v in vals]
 
 
 def convergence(case: Case | str, levels: Sequence[int] = (0, 1, 2), kind: str = "h",
@@ -314,14 +339,11 @@ def convergence(case: Case | str, levels: Sequence[int] = (0, 1, 2), kind: str =
     case = load_case(case)
     if phase_locked:
         case = case.with_fem(edge_nodes=True)
-    if kind not in KINDS:
-        from compare.errors import CaseError
-
-        raise CaseError(f"kind={kind!r} is not allowed: need one of {', '.join(KINDS)}")
-    vals = _values(kind, levels, values)
+    vals = study_values(kind, levels, values)
+    variants = _variants(case, kind, vals)
     an = solve_case(case)
     runs = []
-    for i, c in enumerate(_variants(case, kind, vals)):
+    for i, c in enumerate(variants):
         runs.append(run_case(c, analytic=an))
         if progress:
             progress(i + 1, len(vals))

@@ -124,16 +124,31 @@ def _legacy_hint(owned: dict | None, foreign: list[str]) -> str:
     return ""
 
 
-def _folder(out: str | Path, own: str, not_file: str) -> Path:
+def _folder(out: str | Path, own: str, not_file: str, inside: bool = False) -> Path:
     """``out`` resolved; CaseError when it is refused outright (:func:`_never`: ``own`` says
-    what to give instead) or is a file (``not_file``)."""
+    what to give instead), is a file (``not_file``) or cannot be written (:func:`_probe`: in its
+    parent, where the output is made and renamed into place; ``inside``: in ``out`` itself, for
+    a store that writes there)."""
     path = Path(out).expanduser().resolve()
     why = _never(path)
     if why:
         raise CaseError(f"output folder {out}: refused, it {why}; {own}")
     if path.exists() and not path.is_dir():
         raise CaseError(f"output folder {out}: is a file; {not_file}")
+    _probe(out, path if inside else path.parent)
     return path
+
+
+def _probe(out: str | Path, where: Path) -> None:
+    """CaseError now, before anything is computed, when no folder can be made in ``where`` (or
+    in its nearest existing ancestor, if it is still to be made): a probe folder, removed at
+    once."""
+    base = next(p for p in (where, *where.parents) if p.exists())
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".multicontact-probe-", dir=base))
+    except OSError as exc:
+        raise CaseError(f"output folder {out}: cannot write in {base} ({exc.strerror or exc}); "
+                        "nothing was computed. Give a folder where you can write") from None
 
 
 def plan_output(out: str | Path, command: str, force: bool = False,
@@ -177,7 +192,8 @@ def check_store(out: str | Path, marker: str, force: bool = False) -> Path:
     """Check the folder ``out`` of a store that only adds its own files (a sweep: resumable,
     never deletes): refused outright like :func:`plan_output`; an existing folder that holds
     files but not the store's ``marker`` file is refused unless ``force``."""
-    path = _folder(out, "give a folder of its own, e.g. -o runs/NAME", "give a folder")
+    path = _folder(out, "give a folder of its own, e.g. -o runs/NAME", "give a folder",
+                   inside=True)
     if path.is_dir() and not (path / marker).exists() and not force:
         foreign = _files(path)
         if foreign:
@@ -194,8 +210,12 @@ def owned_output(out: str | Path, command: str, force: bool = False,
     normal exit its files replace the previous output in ``out`` (see the module docstring),
     on an exception ``out`` is left as it was."""
     plan = plan or plan_output(out, command, force)
-    plan.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{plan.out.name}.tmp-", dir=plan.out.parent))
+    try:
+        plan.out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{plan.out.name}.tmp-", dir=plan.out.parent))
+    except OSError as exc:
+        raise CaseError(f"output folder {plan.out}: cannot write in {plan.out.parent} "
+                        f"({exc.strerror or exc}); nothing was written") from None
     try:
         tmp.chmod(umask_mode())
         yield tmp

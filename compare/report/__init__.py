@@ -46,8 +46,10 @@ from compare.run import CaseResult, run_case
 #: VTK and pictures 13 s, Fig. 5 study 6 s).
 DEFAULT_SUITE = ("hertz", "cattaneo", "double_wedge_a", "two_cylinders_unequal",
                  "punch_and_cylinder", "applied_moment")
+#: Levels of the report's convergence studies (``report --levels``).
+DEFAULT_STUDY_LEVELS = (-1, 0, 1)
 #: Default convergence study of the report: Hertz under uniform h-refinement.
-DEFAULT_CONVERGENCE = {"hertz": (-1, 0, 1)}
+DEFAULT_CONVERGENCE = {"hertz": DEFAULT_STUDY_LEVELS}
 
 Progress = Callable[[str], None]
 #: Which FE steps the report's VTK series hold (``fem.write_vtk``): "ends", the interface at the

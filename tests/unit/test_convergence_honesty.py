@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from compare import metrics as mt
-from compare.convergence import STALL_ORDER, TRACKED, assemble, convergence_text
+from compare.convergence import STALL_ORDER, TRACKED, assemble, convergence_text, study_values
+from compare.errors import CaseError
 from compare.tolerances import EDGE_RTOL
 
 H = [0.04, 0.02, 0.01, 0.005]
@@ -194,3 +195,49 @@ def test_the_edge_offset_keeps_its_sign_and_a_crossing_is_named():
     assert st.summary()["offset_crossings"] == [[1, 2]]
     same_sign = study(errors(), [1.0 + 0.3 * h for h in H])
     assert same_sign.offset_crossings() == [] and "changes sign" not in convergence_text(same_sign)
+
+
+@pytest.mark.parametrize("kind, levels, values, expected", [
+    ("h", (0, 1, 2), None, [0, 1, 2]),
+    ("h", (-1, 1), None, [-1, 1]),
+    ("h", (2.0, 3.0), None, [2, 3]),
+    ("penalty", (), None, [100.0, 1e4, math.inf]),
+    ("penalty", (), (1.0, 10.0, math.inf), [1.0, 10.0, math.inf]),
+    ("domain", (), None, [6.0, 12.0, 25.0]),
+])
+def test_study_values_in_refining_order(kind, levels, values, expected):
+    assert study_values(kind, levels, values) == expected
+
+
+@pytest.mark.parametrize("kind, levels, values, words", [
+    ("h", (0,), None, "levels=0 is not allowed for an h-study: need at least two levels"),
+    ("h", (1, 0), None, "levels=1 0 is not allowed"),
+    ("h", (0, 0), None, "levels=0 0 is not allowed"),
+    ("h", (0, 1.5), None, "levels=0 1.5 is not allowed"),
+    ("h", (), None, "levels= is not allowed"),
+    ("penalty", (), (0.0, 10.0), "values=0 10 is not allowed for a penalty-study"),
+    ("penalty", (), (math.inf, math.inf), "values=inf inf is not allowed"),
+    ("penalty", (), (10.0, math.nan), "values=10 nan is not allowed"),
+    ("domain", (), (12.0, 6.0), "values=12 6 is not allowed for a domain-study"),
+    ("domain", (), (6.0, math.inf), "values=6 inf is not allowed"),
+    ("domain", (), (6.0,), "values=6 is not allowed"),
+    ("mesh", (0, 1), None, "kind='mesh' is not allowed: need one of h, penalty, domain"),
+])
+def test_study_values_refused(kind, levels, values, words):
+    """A study whose runs are not in refining order would read the coarsest run as the finest
+    ('error not smaller at the finest run' for a study that converges): refused at once."""
+    with pytest.raises(CaseError) as exc:
+        study_values(kind, levels, values)
+    assert words in str(exc.value)
+
+
+def test_convergence_refuses_before_solving(monkeypatch):
+    """convergence() checks its runs before the analytic solution or any FE run."""
+    import importlib
+
+    cv = importlib.import_module("compare.convergence")  # compare.convergence: the function
+    monkeypatch.setattr(cv, "solve_case", lambda case: pytest.fail("solved a refused study"))
+    with pytest.raises(CaseError, match="levels=1 0 is not allowed"):
+        cv.convergence("hertz", levels=(1, 0))
+    with pytest.raises(CaseError, match="fem.level=7 is not allowed"):
+        cv.convergence("hertz", levels=(5, 7))

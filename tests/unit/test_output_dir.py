@@ -160,3 +160,43 @@ def test_folder_taken_by_another_command_meanwhile_is_not_replaced(tmp_path):
         (tmp / "index.html").write_text("report")
         write(out, {"history.pvd": "fem"}, command="fem")  # another run, same folder
     assert tree(out) == {"history.pvd": "fem"}
+
+
+def test_unwritable_place_refused_before_anything_is_computed(tmp_path, monkeypatch):
+    """A folder that cannot be made (under a file; a parent refusing writes) is refused by the
+    plan with the OS's reason, not by a traceback after the run; the probe leaves nothing."""
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(CaseError, match=r"output folder .*: cannot write in .*afile \(Not a "
+                       r"directory\); nothing was computed"):
+        plan_output(tmp_path / "afile" / "rep", "report")
+    with pytest.raises(CaseError, match="cannot write in"):
+        check_store(tmp_path / "afile" / "runs", "sweep.json")
+
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(fileio.tempfile, "mkdtemp", refuse)
+    for out in (tmp_path / "new" / "rep", tmp_path):
+        with pytest.raises(CaseError, match=r"cannot write in .* \(Permission denied\)"):
+            plan_output(out / "rep", "report")
+    plan = fileio.OutputPlan((tmp_path / "rep").resolve(), "report", ())  # planned before
+    with pytest.raises(CaseError, match=r"cannot write in .* \(Permission denied\); nothing was "
+                       "written"), owned_output(tmp_path / "rep", "report", plan=plan):
+        pytest.fail("written without a temporary folder")
+    monkeypatch.undo()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+def test_store_probed_inside_an_existing_folder(tmp_path, monkeypatch):
+    """A sweep writes inside its folder: that is where it is probed (the parent may be
+    read-only), and a writable folder passes."""
+    out = tmp_path / "runs"
+    out.mkdir()
+    seen = []
+    real = fileio.tempfile.mkdtemp
+    monkeypatch.setattr(fileio.tempfile, "mkdtemp",
+                        lambda **kw: seen.append(kw["dir"]) or real(**kw))
+    assert check_store(out, "sweep.json") == out.resolve()
+    plan_output(tmp_path / "rep", "report")
+    assert seen == [out.resolve(), tmp_path.resolve()]
+    assert sorted(p.name for p in out.iterdir()) == []

@@ -82,3 +82,45 @@ def test_plain_numbers_round_off_and_version(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0 and capsys.readouterr().out.startswith("multicontact ")
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["converge", "hertz", "--levels", "0"], "levels=0 is not allowed for an h-study"),
+    (["converge", "hertz", "--levels", "1", "0"], "levels=1 0 is not allowed"),
+    (["converge", "hertz", "--kind", "domain", "--values", "12", "6"], "values=12 6 is not"),
+    (["report", "-o", "REP", "--levels", "1", "0"], "levels=1 0 is not allowed"),
+    (["report", "-o", "REP", "--convergence", "hertz", "--levels", "0"], "levels=0 is not"),
+    (["report", "-o", "afile/REP"], "cannot write in"),
+])
+def test_study_and_output_refused_before_any_run(tmp_path, capsys, monkeypatch, argv, words):
+    """A study out of refining order, or an output folder that cannot be written: exit 2, one
+    line, before any solve (the analytic solution is never reached)."""
+    import importlib
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "afile").write_text("x")
+    cv = importlib.import_module("compare.convergence")
+    monkeypatch.setattr(cv, "solve_case", lambda case: pytest.fail("a refused run was solved"))
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert words in err and len(err.splitlines()) == 1, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+
+
+def test_report_levels_apply_to_the_default_study(tmp_path, monkeypatch):
+    """`report --levels` without --convergence sets the default study's levels (it was ignored)."""
+    import importlib
+
+    rep = importlib.import_module("compare.report")
+    seen = {}
+
+    def fake(cases, out, convergence_cases, **kw):
+        seen.update(convergence_cases)
+        return {"index": str(tmp_path / "index.html"), "passed": True, "elapsed_seconds": 0.0}
+
+    monkeypatch.setattr(rep, "write_report", fake)
+    monkeypatch.setattr("compare.cli._size", lambda path: "0 B")
+    main(["report", "hertz", "-o", str(tmp_path / "r"), "--levels", "0", "1", "2", "--no-fig5"])
+    assert seen == {"hertz": (0, 1, 2)}
+    main(["report", "hertz", "-o", str(tmp_path / "r")])
+    assert seen == {"hertz": rep.DEFAULT_STUDY_LEVELS}
