@@ -92,7 +92,7 @@ def run_sweep(sweep: Sweep | str | Path, directory: str | Path, *, workers: int 
     scheduler.  SIGINT / SIGTERM stop the run after keeping every finished record.
     """
     sweep = sweep if isinstance(sweep, Sweep) else load_sweep(sweep)
-    workers = workers or default_workers()
+    workers = default_workers() if workers is None else workers
     if workers < 1:
         raise SweepError(f"workers={workers!r} is not allowed: need >= 1")
     run_id, t0 = uuid.uuid4().hex[:12], time.perf_counter()

@@ -48,6 +48,16 @@ def lines(d: Path) -> list[dict]:
     return [json.loads(x) for x in f.read_text().splitlines()] if f.exists() else []
 
 
+
+@pytest.mark.parametrize("workers", [0, -1])
+def test_workers_below_one_refused_before_the_folder(tmp_path, workers):
+    """--workers 0 is refused like -1 (it used to mean 'all cores' without a word)."""
+    out = tmp_path / "out"
+    with pytest.raises(sw.SweepError, match=f"workers={workers} is not allowed: need >= 1"):
+        sw.run_sweep(overlap_sweep(tmp_path / "s.toml", [0.01]), out, workers=workers,
+                     progress=False)
+    assert not out.exists()
+
 def test_overlap_sweep_matches_fig5_data_and_reports(tmp_path):
     loads = [0.01, 0.03, 0.06]
     out = tmp_path / "out"
