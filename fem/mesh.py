@@ -21,7 +21,7 @@ import numpy as np
 from skfem import MeshQuad
 
 from .errors import InputError
-from .rings import convex, ring_body
+from .rings import convex, quad_area, ring_body
 from .settings import MeshFile, MeshSpec, validate_mesh_spec
 
 BOUNDARY_NAMES = ("contact_upper", "contact_lower", "top", "bottom")
@@ -326,6 +326,7 @@ def read_mesh(spec: MeshFile) -> TwoBodyMesh:
         (1 - top_comp[0], ("contact_lower", "bottom")),
     ):
         mesh, old2new = sub_mesh(pts, quads[comp[quads[:, 0]] == body])
+        check_convex(mesh, f"{str(path)!r}, the body with {names[1]!r}")
         meshes[names[0]] = mesh
         for name in names:
             idx = old2new[named[name]]
@@ -393,21 +394,27 @@ def body_components(quads: np.ndarray, n_points: int) -> np.ndarray:
     return connected_components(graph, directed=False)[1]
 
 
+def check_convex(mesh: MeshQuad, where: str) -> None:
+    """InputError unless every quad is strictly convex (a bow-tie or a collapsed corner has a
+    Jacobian that vanishes or changes sign inside the element)."""
+    bad = np.flatnonzero(~convex(mesh.p, mesh.t))
+    if bad.size:
+        x, y = mesh.p[:, mesh.t[:, bad[0]]]
+        corners = ", ".join(f"({a:.6g}, {b:.6g})" for a, b in zip(x, y, strict=True))
+        raise InputError(f"mesh file {where}: {bad.size} quad(s) not strictly convex, the first "
+                         f"with corners {corners}; allowed: convex quads with their four nodes in "
+                         "order around them (no bow-ties, no collapsed or straight corners)")
+
+
 def sub_mesh(pts: np.ndarray, quads: np.ndarray) -> tuple[MeshQuad, np.ndarray]:
     """Build a MeshQuad from a subset of quads; return it and the old->new node map."""
     used = np.unique(quads)
     old2new = -np.ones(pts.shape[0], dtype=np.int64)
     old2new[used] = np.arange(used.size)
     t = old2new[quads]
-    area = signed_area(pts[used].T, t.T)
+    area = quad_area(pts[used].T, t.T)
     t[area < 0] = t[area < 0][:, ::-1]
     return MeshQuad(pts[used].T.copy(), t.T.copy()), old2new
-
-
-def signed_area(p: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Shoelace signed area of each quad (positive = counter-clockwise)."""
-    x, y = p[0, t], p[1, t]
-    return 0.5 * np.sum(x * np.roll(y, -1, axis=0) - np.roll(x, -1, axis=0) * y, axis=0)
 
 
 def write_msh(mesh: TwoBodyMesh, path: Path) -> Path:

@@ -89,6 +89,36 @@ def test_mesh_file_with_triangles_is_refused(tmp_path):
         read_mesh(fem.MeshFile(path))
 
 
+
+@pytest.mark.parametrize("order, words", [
+    ([0, 2, 1, 3], "1 quad(s) not strictly convex"),  # a bow-tie
+    ([3, 2, 1, 0], None),  # clockwise: turned round, read as the same mesh
+])
+def test_mesh_file_quads_convex_or_one_error(tmp_path, order, words):
+    """A bow-tie quad ended in skfem's bare 'Zero Jacobian determinant': one InputError naming
+    the file, the body and the element's corners; a clockwise quad is only turned round."""
+    import meshio
+
+    m = build_mesh(fem.MeshSpec(level=-2), (-1.0, 1.0))
+    good = meshio.read(write_msh(m, tmp_path / "two.msh"))
+    quads = next(c for c in good.cells if c.type == "quad").data.copy()
+    quads[0] = quads[0][order]
+    cells = [meshio.CellBlock("quad", quads) if c.type == "quad" else c for c in good.cells]
+    path = tmp_path / "odd.msh"
+    meshio.write(path, meshio.Mesh(good.points, cells, cell_data=good.cell_data,
+                                   field_data=good.field_data), file_format="gmsh22",
+                 binary=False)
+    if words is None:
+        back = read_mesh(fem.MeshFile(path))
+        assert all(np.array_equal(np.sort(b.t, axis=0), np.sort(a.t, axis=0))
+                   for a, b in zip(read_mesh(fem.MeshFile(tmp_path / "two.msh")).bodies,
+                                   back.bodies, strict=True))
+        return
+    with pytest.raises(fem.InputError, match=r"odd.msh', the body with 'top': 1 quad\(s\) not "
+                       r"strictly convex, the first with corners \(") as exc:
+        read_mesh(fem.MeshFile(path))
+    assert words in str(exc.value) and "no bow-ties" in str(exc.value)
+
 def test_non_matching_interface_rejected(tmp_path):
     from skfem import MeshQuad
 
