@@ -40,6 +40,19 @@ def format_checks(checks, title: str = "") -> str:
     return "\n".join(lines)
 
 
+def _tolerance(key: str, value) -> float:
+    """A tolerance keyword's value as a float; ValueError naming it unless a number >= 0 (inf:
+    no bound)."""
+    try:
+        tol = float(value)
+    except (TypeError, ValueError):
+        tol = math.nan
+    if isinstance(value, bool) or not tol >= 0:
+        raise ValueError(f"assert_agrees: {key}={value!r} is not allowed: need a number >= 0 "
+                         "(inf: no bound)")
+    return tol
+
+
 def assert_agrees(result: CaseResult, **tolerances: float) -> None:
     """Assert that FE and analytic solutions agree within the tolerances.
 
@@ -54,7 +67,7 @@ def assert_agrees(result: CaseResult, **tolerances: float) -> None:
     if bad:
         raise TypeError(f"assert_agrees: unknown keyword(s) {bad}; allowed {sorted(KEYWORDS)}")
     tol = dict(result.case.tolerances)
-    tol.update({KEYWORDS[k]: float(v) for k, v in tolerances.items()})
+    tol.update({KEYWORDS[k]: _tolerance(k, v) for k, v in tolerances.items()})
     checks = [Check(n, METRIC_OF[n], float(result.metrics.get(METRIC_OF[n], math.nan)), t)
               for n, t in tol.items()]
     checks += [Check(n, k, float(result.metrics.get(k, math.nan)), 0.0)

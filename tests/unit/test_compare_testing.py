@@ -44,6 +44,19 @@ def test_unknown_keyword():
         assert_agrees(fake(), edge_tol=0.1)
 
 
+
+@pytest.mark.parametrize("value", ["abc", None, float("nan"), -0.01, True, [0.1]])
+def test_bad_tolerance_value_named(value):
+    """A tolerance that is no number >= 0 (a NaN one failed every check without saying why, a
+    string raised float()'s bare ValueError): one error naming the keyword and the value."""
+    with pytest.raises(ValueError, match=r"assert_agrees: edge_rtol=.* is not allowed: need a "
+                       r"number >= 0"):
+        assert_agrees(fake(), edge_rtol=value)
+
+
+def test_infinite_tolerance_is_no_bound():
+    assert_agrees(fake(edge_error_max=5.0), edge_rtol=float("inf"), stick_rtol=0.002)
+
 def test_check_table_columns_align_on_long_names():
     """Every column starts (text) or ends (numbers) at one offset, also past a long name."""
     from compare.run import Check
