@@ -20,7 +20,8 @@ Both use tension positive and body 2's axes, and the FE shear on body 2's contac
   sxx| of the state (the tensile peaks, at a trailing edge or a stick edge, are where fretting
   cracks start);
 - ``surface_peak_location_error``: max over the sampled Q and the zones of the distance
-  between the two peaks divided by the zone width.
+  between the two peaks divided by the zone width (from the nearest analytic point tied with
+  the analytic peak to rounding, PEAK_TIE: a plateau has no one peak).
 """
 
 from __future__ import annotations
@@ -55,6 +56,12 @@ PEAK_SAMPLES = 401
 PEAK_MARGIN = 1.5
 #: Pad of the surface window around the contact span, in span widths.
 SURFACE_PAD = 0.25
+#: Analytic surface sxx within this fraction of the state's scale of the peak ties with it:
+#: where exact values are equal the computed ones agree to rounding (sharp_punch after Q returns
+#: to 0: full stick, q = 0, sxx = 0 on the whole surface outside the zone, computed 1.2e-16 of
+#: 52), and the FE peak's location is measured from the nearest tied point (the FE, picking
+#: its largest rounding noise on that plateau, had been 1.5 zone widths from the first one).
+PEAK_TIE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -180,8 +187,10 @@ def regular(x: np.ndarray, zones, points, factor: float = 1.0) -> np.ndarray:
 
 def zone_peaks(xa, sa, xf, sf, zones, points) -> list[tuple[float, float, float, float]]:
     """Per zone ``(peak_an, x_an, peak_fe, x_fe)`` of sxx in its peak window, singular discs
-    left out (the analytic sxx is unbounded there)."""
+    left out (the analytic sxx is unbounded there); ``x_an``: of analytic points tied with the
+    peak (PEAK_TIE), the one nearest the FE peak."""
     ka, kf = regular(xa, zones, points), regular(xf, zones, points)
+    scale = np.max(np.abs(sa[ka])) if ka.any() else 0.0
     out = []
     for lo, hi in peak_windows(zones):
         ma = ka & (xa >= lo) & (xa <= hi)
@@ -193,7 +202,9 @@ def zone_peaks(xa, sa, xf, sf, zones, points) -> list[tuple[float, float, float,
         if not regular(xa[i:i + 1], zones, points, PEAK_MARGIN)[0]:
             out.append((NAN, NAN, NAN, NAN))  # the sup is the singular point itself
             continue
-        out.append((float(sa[i]), float(xa[i]), float(sf[j]), float(xf[j])))
+        tied = np.flatnonzero(ma & (sa >= sa[i] - PEAK_TIE * scale))
+        x_an = xa[tied[np.argmin(np.abs(xa[tied] - xf[j]))]]
+        out.append((float(sa[i]), float(x_an), float(sf[j]), float(xf[j])))
     return out
 
 

@@ -33,3 +33,20 @@ def test_zone_peaks_per_zone_and_singular_sup_is_not_a_peak():
     pa, xpa, pf, xpf = peaks[0]
     assert xpa == xpf and abs(xpa - 0.2) < 1e-12 and math.isclose(pf, 0.9 * pa)
     assert all(math.isnan(v) for v in peaks[1])  # its sup sits on the singular point x = 4
+
+
+def test_tied_analytic_peak_located_nearest_the_fe_peak():
+    """A plateau (sharp_punch after Q returns to 0: sxx = 0 on the whole surface outside the
+    zone, computed at rounding level) has no one peak: the FE peak's location is measured from
+    the nearest tied point, not from the plateau's first sample; a distinct peak is unchanged,
+    and a tie wider than rounding is no tie."""
+    zones = [(-1.0, 1.0)]
+    xa = np.linspace(-2.0, 2.0, 401)
+    plateau = np.where(np.abs(xa) < 1.0, -(1.0 - xa**2), 1e-16 * np.cos(xa))  # max at x=-2
+    xf = xa[::4]
+    noise = np.where(np.abs(xf) < 1.0, -(1.0 - xf**2), 0.0) + 1e-6 * (xf > 1.5)
+    _, x_an, _, x_fe = cs.zone_peaks(xa, plateau, xf, noise, zones, points=[])[0]
+    assert x_fe > 1.5 and x_an == x_fe
+    bump = plateau + 1e-6 * np.exp(-((xa + 1.6) / 0.05) ** 2)  # a real peak, 1e-6 of the scale
+    _, x_an, _, _ = cs.zone_peaks(xa, bump, xf, noise, zones, points=[])[0]
+    assert abs(x_an + 1.6) < 1e-12
