@@ -197,13 +197,9 @@ def measurement_lines(res: CaseResult) -> list[str]:
                    f"{m['edge_error_max_elements']:.3g} element"
                    + (f" (edge estimator uncertainty up to {max(unc):.2g} element)"
                       if unc else ""))
-    sunc = [u for r in res.samples for pair in r.get("stick_uncertainty_elements", ())
-            if pair for u in pair if math.isfinite(u)]
     if math.isfinite(m.get("stick_edge_error_max_elements", math.nan)):
         out.append(f"stick-edge error: {m['stick_edge_error_max']:.3g} of the zone width = "
-                   f"{m['stick_edge_error_max_elements']:.3g} element"
-                   + (f" (estimator uncertainty up to {max(sunc):.2g} element)" if sunc
-                      else ""))
+                   f"{m['stick_edge_error_max_elements']:.3g} element" + _worst_stick(res))
     for metric, key, where in (("pressure_l2_error", "pressure_l2_top_share",
                                 "pressure_l2_top_x"),
                                ("shear_l2_error", "shear_l2_top_share", None)):
@@ -214,6 +210,25 @@ def measurement_lines(res: CaseResult) -> list[str]:
             out.append(f"{metric}: one node{at} carries {share:.0%} of the squared error "
                        "(the value depends on where an edge falls between nodes)")
     return out
+
+
+def _stick_uncertainty(row: dict) -> list[float]:
+    return [u for pair in row.get("stick_uncertainty_elements", ()) if pair for u in pair
+            if math.isfinite(u)]
+
+
+def _worst_stick(res: CaseResult) -> str:
+    """Where the stick-edge error is largest, with the estimator's uncertainty there and its
+    largest over the steps (a large uncertainty elsewhere says nothing of the worst step)."""
+    rows = [r for r in res.samples if math.isfinite(r.get("stick_edge_error_max", math.nan))]
+    if not rows:
+        return ""
+    worst = max(rows, key=lambda r: r["stick_edge_error_max"])
+    here, every = _stick_uncertainty(worst), [u for r in rows for u in _stick_uncertainty(r)]
+    unc = (f"; estimator uncertainty there {max(here):.2g} element" if here else "") + (
+        f", up to {max(every):.2g} over the steps" if every and max(every) > max(here or [0])
+        else "")
+    return f" (worst at stage {worst['stage']}, Q = {worst['Q']:.4g}{unc})"
 
 
 def report_note(res: CaseResult) -> str:
