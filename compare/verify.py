@@ -212,7 +212,7 @@ def measurement_lines(res: CaseResult) -> list[str]:
     return out
 
 
-def _stick_uncertainty(row: dict) -> list[float]:
+def _row_uncertainties(row: dict) -> list[float]:
     return [u for pair in row.get("stick_uncertainty_elements", ()) if pair for u in pair
             if math.isfinite(u)]
 
@@ -224,7 +224,7 @@ def _worst_stick(res: CaseResult) -> str:
     if not rows:
         return ""
     worst = max(rows, key=lambda r: r["stick_edge_error_max"])
-    here, every = _stick_uncertainty(worst), [u for r in rows for u in _stick_uncertainty(r)]
+    here, every = _row_uncertainties(worst), [u for r in rows for u in _row_uncertainties(r)]
     unc = (f"; estimator uncertainty there {max(here):.2g} element" if here else "") + (
         f", up to {max(every):.2g} over the steps" if every and max(every) > max(here or [0])
         else "")
