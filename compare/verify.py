@@ -225,9 +225,10 @@ def _worst_stick(res: CaseResult) -> str:
         return ""
     worst = max(rows, key=lambda r: r["stick_edge_error_max"])
     here, every = _row_uncertainties(worst), [u for r in rows for u in _row_uncertainties(r)]
-    unc = (f"; estimator uncertainty there {max(here):.2g} element" if here else "") + (
-        f", up to {max(every):.2g} over the steps" if every and max(every) > max(here or [0])
-        else "")
+    unc = f"; estimator uncertainty there {max(here):.2g} element" if here else ""
+    if every and max(every) > max(here or [0.0]):
+        unc += f"{',' if here else '; estimator uncertainty'} up to {max(every):.2g}" + (
+            "" if here else " element") + " over the steps"
     return f" (worst at stage {worst['stage']}, Q = {worst['Q']:.4g}{unc})"
 
 
