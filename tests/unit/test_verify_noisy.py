@@ -167,3 +167,23 @@ def test_stick_line_names_the_worst_step_and_its_own_uncertainty(analytic):
     (line,) = [x for x in measurement_lines(res) if x.startswith("stick-edge error:")]
     assert f"(worst at stage {worst['stage']}, Q = {worst['Q']:.4g}; " in line
     assert f"estimator uncertainty there {here:.2g} element" in line
+
+
+def test_worst_stick_wording_with_and_without_an_uncertainty_there():
+    from types import SimpleNamespace
+
+    from compare.verify import _worst_stick
+
+    def row(stage, Q, err, unc):
+        return {"stage": stage, "Q": Q, "stick_edge_error_max": err,
+                "stick_uncertainty_elements": unc}
+
+    rows = [row(2, 1.0, 0.001, [(0.5, 7.0)]), row(3, -2.0, 0.004, [(0.2, 0.1)])]
+    assert _worst_stick(SimpleNamespace(samples=rows)) == (
+        " (worst at stage 3, Q = -2; estimator uncertainty there 0.2 element, up to 7 over the "
+        "steps)")
+    rows[1]["stick_uncertainty_elements"] = [None]
+    assert _worst_stick(SimpleNamespace(samples=rows)) == (
+        " (worst at stage 3, Q = -2; estimator uncertainty up to 7 element over the steps)")
+    assert _worst_stick(SimpleNamespace(samples=rows[1:])) == " (worst at stage 3, Q = -2)"
+    assert _worst_stick(SimpleNamespace(samples=[])) == ""
