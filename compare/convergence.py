@@ -310,7 +310,7 @@ def study_values(kind: str, levels: Sequence[int] = (0, 1, 2),
         raise CaseError(f"kind={kind!r} is not allowed: need one of {', '.join(KINDS)}")
     default = (100.0, 1e4, math.inf) if kind == "penalty" else (6.0, 12.0, 25.0)
     vals = list(levels) if kind == "h" else list(default if values is None else values)
-    num = np.array(vals, float) if vals else np.zeros(0)
+    num = np.array(vals, float)
     with np.errstate(invalid="ignore"):  # inf - inf: nan, refused as not increasing
         steps = np.diff(num)
     bad = (num.size < 2 or not np.all(steps > 0)
