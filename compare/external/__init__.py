@@ -6,7 +6,8 @@ read_result(path, settings=None) -> ExternalResult
     (conventions such as ``pressure_sign``, meta data such as ``code``).
 ExternalResult.history(mu, E, nu) -> fem.FemHistory (FE-like, our convention)
 ExternalResult.checked_history(mu, E, nu) -> (fem.FemHistory, notes): every step checked first
-    (sum p w = P, sum q w = Q, p >= 0, widths; exchange.check_consistency)
+    (sum p w = P, sum q w = Q, sum x p w = M, p >= 0, widths, loads in order;
+    exchange.check_consistency, exchange.check_stages)
 write_result(hist, directory, code=..., case=..., force=False) -> path of the manifest (our own
     history exported; see compare.fileio.owned_output)
 Conventions, Meta: the header items.  Errors: compare.errors.CaseError.

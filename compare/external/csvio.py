@@ -37,6 +37,10 @@ MANIFEST = "steps.csv"
 HEADER_KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 LOAD_KEYS = ("stage", "P", "Q", "M", "theta")
 MANIFEST_COLUMNS = ("stage", "P", "Q", "file")
+MANIFEST_OPTIONAL = ("M", "theta", "step")
+#: A step file's load header items that repeat its manifest row must agree with it to this
+#: fraction of P (our own export writes both in full precision).
+SAME_LOAD_RTOL = 1e-6
 FORMAT_LINE = "# multicontact interface result (docs/external.md), format 1"
 
 
@@ -54,7 +58,7 @@ class Table:
 def read_table(path: Path) -> Table:
     """Split a CSV file into header items, column names and rows (line numbers kept)."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a spreadsheet's byte-order mark too
     except (OSError, UnicodeDecodeError) as exc:
         raise CaseError(f"{path}: cannot read ({exc})") from None
     items, item_lines, names, rows = {}, {}, None, []
@@ -68,12 +72,25 @@ def read_table(path: Path) -> Table:
             continue
         cells = next(csv.reader([line]))
         if names is None:
-            names = [c.strip() for c in cells]
+            names = column_names(cells, f"{path}, line {no}")
         else:
             rows.append((no, cells))
     if names is None:
         raise CaseError(f"{path}: no column line found (expected e.g. 'x,p,q,status')")
     return Table(path, items, item_lines, names, rows)
+
+
+def column_names(cells: list[str], where: str) -> list[str]:
+    """The column line's names: each once, separated by commas."""
+    names = [c.strip() for c in cells]
+    if len(names) == 1 and (";" in names[0] or "\t" in names[0]):
+        sep = "';'" if ";" in names[0] else "a tab"
+        raise CaseError(f"{where}: the column line {names[0]!r} is separated by {sep}; allowed: "
+                        "commas (e.g. 'x,p,q,status')")
+    twice = [n for i, n in enumerate(names) if n in names[:i]]
+    if twice:
+        raise CaseError(f"{where}: column '{twice[0]}' given twice; each column once")
+    return names
 
 
 def _set_item(items: dict, lines: dict, key: str, value: str, where: str) -> None:
@@ -149,7 +166,11 @@ def _manifest_entries(table: Table) -> list:
     missing = [c for c in MANIFEST_COLUMNS if c not in table.names]
     if missing:
         raise CaseError(f"{table.path}: missing column '{missing[0]}'; a manifest needs "
-                        f"{', '.join(MANIFEST_COLUMNS)} (optional M, theta, step)")
+                        f"{', '.join(MANIFEST_COLUMNS)} (optional {', '.join(MANIFEST_OPTIONAL)})")
+    unknown = [c for c in table.names if c not in MANIFEST_COLUMNS + MANIFEST_OPTIONAL]
+    if unknown:
+        raise CaseError(f"{table.path}: unknown column '{unknown[0]}'; allowed: "
+                        f"{', '.join(MANIFEST_COLUMNS + MANIFEST_OPTIONAL)}")
     out = []
     for no, cells in table.rows:
         where = f"{table.path}, line {no}"
@@ -181,18 +202,46 @@ def _own_loads(t: Table) -> tuple:
 
 
 def _result(source: Path, header_tables: list, entries: list, settings: dict) -> ExternalResult:
+    tables = [tab if isinstance(tab, Table) else read_table(tab) for _, _, tab in entries]
+    own = {id(t) for t in header_tables}
+    step_files = [t for t in tables if id(t) not in own]  # a manifest's: load items repeat it
+    for (where, loads, _), table in zip(entries, tables, strict=True):
+        if id(table) not in own:
+            check_step_loads(table, loads, where)
     items, lines = {}, {}
-    for t in header_tables:
+    for t in header_tables + step_files:
         for k, v in t.items.items():
             if k not in LOAD_KEYS:
                 _set_item(items, lines, k, v, t.item_lines[k])
     items.update(settings)
-    conv, meta = parse_header(items, str(source))
-    raw = []
-    for where, loads, tab in entries:
-        table = tab if isinstance(tab, Table) else read_table(tab)
-        raw.append(RawStep(where, *loads, node_columns(table, conv)))
+    lines.update(dict.fromkeys(settings, f"{source} (--set / settings)"))
+    conv, meta = parse_header(items, str(source), lines)
+    raw = [RawStep(where, *loads, node_columns(table, conv))
+           for (where, loads, _), table in zip(entries, tables, strict=True)]
     return ExternalResult(str(source), tuple(raw), conv, meta)
+
+
+def check_step_loads(table: Table, loads: tuple, where: str) -> None:
+    """A manifest's step file may repeat its loads as header items (our own export writes its
+    stage, P and Q); each must agree with the manifest row (P and Q to SAME_LOAD_RTOL of P, M
+    and theta to SAME_LOAD_RTOL of themselves): the loads are the manifest's."""
+    row = dict(zip(LOAD_KEYS, loads, strict=True))
+    for key in (k for k in LOAD_KEYS if k in table.items):
+        text, at = table.items[key], table.item_lines[key]
+        ref = row[key]
+        if key == "stage":
+            same = text == str(ref)
+        elif math.isnan(ref):
+            raise CaseError(f"{at}: header '{key} = {text}' in a step file of a manifest with no "
+                            f"{key} column; give {key} in the manifest ({where})")
+        else:
+            value = _float(text, at, key)
+            floor = SAME_LOAD_RTOL * row["P"] if key in "PQ" else 1e-12
+            same = abs(value - ref) <= max(SAME_LOAD_RTOL * abs(ref), floor)
+        if not same:
+            raise CaseError(f"{at}: header '{key} = {text}' disagrees with the manifest's {key} "
+                            f"= {ref!r} ({where}); give the loads in {MANIFEST} only, or the "
+                            "same in both")
 
 
 # ---------------------------------------------------------------------------------------------

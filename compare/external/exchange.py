@@ -24,14 +24,28 @@ from fem.results import zones_with_uncertainty
 #: Columns every step table must have, and the optional ones (see docs/external.md).
 REQUIRED_COLUMNS = ("x", "p", "q")
 OPTIONAL_COLUMNS = ("status", "w", "slip", "gap", "ux")
-#: Without a status column a node is open where p <= 0, slip where |q| >= (1 - STATUS_EPS) mu p
-#: and stick otherwise: Kratos 10.3 (ALM mortar, cattaneo) has |q| / mu p >= 1 - 2e-5 on its slip
-#: nodes and <= 0.985 on its stick nodes.
+#: Without a status column a node is open where p <= 0, slip where its shear reaches the cone
+#: (:func:`derived_status`) and stick otherwise.  The cone's slack: STATUS_EPS of mu p at the
+#: node (Kratos 10.3, ALM mortar, cattaneo: |q| / mu p >= 1 - 2e-5 on its slip nodes and <= 0.985
+#: on its stick nodes) ...
 STATUS_EPS = 1e-3
-#: Per step, sum p w must give P and sum q w must give Q within this fraction of P: measured
-#: 0.12 % (P) and 0.04 % (Q) on Kratos 10.3 (cattaneo level 0, default tributary widths), < 1e-9
-#: on our own FE export; a sign, unit or width mistake is off by O(1) or a power of ten.
+#: ... or, in stages 2 and 3, SLIP_SLACK of mu max p, whichever is larger: a regularised
+#: friction law or a file of 3 significant digits leaves a slip node's shear up to a few 1e-3
+#: of mu p below the cone, which STATUS_EPS alone took for stick (the whole contact zone then
+#: a stick zone: 16-19 elements off on cattaneo level 1).  A true stick node that close to the
+#: cone lies within (SLIP_SLACK a / c)^2 / 2 of c of its stick edge (Cattaneo: mu p - |q| =
+#: mu p0 (c/a) sqrt(1 - x^2/c^2)): 5e-3 c for c = a/10.
+SLIP_SLACK = 1e-2
+#: Per step, sum p w must give P within this fraction of P, sum q w must give Q within this
+#: fraction of mu P (q is bounded by mu p) and, where M is given, sum x p w must give M within
+#: this fraction of P times the largest |x| in contact: measured on Kratos 10.3 (cattaneo level
+#: 0, default tributary widths) 0.12 % of P, 0.13 % of mu P and 0.015 % of P max|x|, < 1e-9 on
+#: our own FE export; a sign, unit or width mistake is off by O(1) or a power of ten.
 CONSISTENCY_RTOL = 0.01
+#: Within a stage the load moves one way (P up in stage 1, Q up in stage 2, down in stage 3); a
+#: step whose load goes back by more than this fraction of P0 is out of order (a code's reaction
+#: noise on a monotone path is far smaller: Kratos 10.3 lands within 1e-5 of P0).
+ORDER_RTOL = 1e-3
 #: Negative pressure down to this fraction of the step's largest p (a penalty code's open or
 #: barely touching nodes) is clipped to 0 with a note; a lower one is an input error.  Kratos
 #: 10.3 writes none; a chosen bound (no penalty code measured yet), 1 % of p_max moves sum p w by
@@ -102,19 +116,22 @@ class RawStep:
     columns: dict
 
 
-def parse_header(items: dict[str, str], where: str) -> tuple[Conventions, Meta]:
-    """Conventions and meta data from ``key = value`` header items (unknown keys: error)."""
+def parse_header(items: dict[str, str], where: str, lines: dict | None = None
+                 ) -> tuple[Conventions, Meta]:
+    """Conventions and meta data from ``key = value`` header items (unknown keys: error);
+    ``lines``: key -> where the item was given (file and line), else ``where``."""
     conv_types = {f.name: type(f.default) for f in fields(Conventions)}
     allowed = sorted(set(conv_types) | set(META_KEYS))
     conv, meta = {}, {}
     for key, text in items.items():
+        at = (lines or {}).get(key, where)
         if key in conv_types:
-            conv[key] = _typed(text, conv_types[key], key, where)
+            conv[key] = _typed(text, conv_types[key], key, at)
         elif key in META_KEYS:
-            meta[key] = _typed(text, META_KEYS[key], key, where)
+            meta[key] = _typed(text, META_KEYS[key], key, at)
         else:
-            raise CaseError(f"{where}: unknown header key '{key}'; allowed: {', '.join(allowed)}")
-    return check_conventions(Conventions(**conv), where), Meta(**meta)
+            raise CaseError(f"{at}: unknown header key '{key}'; allowed: {', '.join(allowed)}")
+    return check_conventions(Conventions(**conv), where, lines), Meta(**meta)
 
 
 def _typed(text: str, typ: type, key: str, where: str):
@@ -127,15 +144,17 @@ def _typed(text: str, typ: type, key: str, where: str):
     return value
 
 
-def check_conventions(conv: Conventions, where: str) -> Conventions:
-    """Reject values outside :attr:`Conventions.CHOICES` and non-positive scales."""
+def check_conventions(conv: Conventions, where: str, lines: dict | None = None) -> Conventions:
+    """Reject values outside :attr:`Conventions.CHOICES` and non-positive scales (``lines``:
+    key -> where it was given, as :func:`parse_header`)."""
     for key, allowed in Conventions.CHOICES.items():
         if getattr(conv, key) not in allowed:
-            raise CaseError(f"{where}: {key} = {getattr(conv, key)!r} is not allowed; allowed: "
-                            f"{', '.join(map(str, allowed))}")
+            raise CaseError(f"{(lines or {}).get(key, where)}: {key} = {getattr(conv, key)!r} "
+                            f"is not allowed; allowed: {', '.join(map(str, allowed))}")
     for key in ("length_scale", "stress_scale"):
         if not getattr(conv, key) > 0:
-            raise CaseError(f"{where}: {key} = {getattr(conv, key)!r} must be > 0")
+            raise CaseError(f"{(lines or {}).get(key, where)}: {key} = "
+                            f"{getattr(conv, key)!r} must be > 0")
     return conv
 
 
@@ -199,26 +218,22 @@ def convert(raw: RawStep, conv: Conventions) -> dict:
             "gap": L * c["gap"] if "gap" in c else np.full(x_file.size, np.nan)}
 
 
-def check_consistency(raw: RawStep, a: dict, P: float, Q: float) -> tuple[dict, str]:
-    """A step's nodal table against its own loads, before anything is measured.
+def check_consistency(raw: RawStep, a: dict, load: tuple, mu: float) -> tuple[dict, str]:
+    """A step's nodal table against its own loads ``(stage, P, Q, M, theta)`` (case units, our
+    signs), before anything is measured.
 
-    Finite positive widths; sum p w = P and sum q w = Q within CONSISTENCY_RTOL * P; p >=
-    -NEGATIVE_P_RTOL * max p.  Returns the arrays (small negative p clipped to 0) and a note
-    ('' if nothing was clipped); raises :class:`CaseError` naming the step, the two numbers and
-    the likely cause."""
+    Finite positive widths; sum p w = P within CONSISTENCY_RTOL * P, sum q w = Q within
+    CONSISTENCY_RTOL * mu P, sum x p w = M (where M is given) within CONSISTENCY_RTOL * P max|x|
+    over the nodes in contact; p >= -NEGATIVE_P_RTOL * max p.  Returns the arrays (small
+    negative p clipped to 0) and a note ('' if nothing was clipped); raises
+    :class:`CaseError` naming the step, the two numbers and the likely cause."""
     w, p = a["w"], a["p"]
     if not np.all(np.isfinite(w)) or np.any(w <= 0):
         i = int(np.flatnonzero(~(np.isfinite(w) & (w > 0)))[0])
         raise CaseError(f"{raw.where}: tributary length w = {float(w[i])!r} at node {i + 1}; "
                         "allowed: finite numbers > 0")
-    tol = CONSISTENCY_RTOL * P
-    for name, f, load in (("p", p, P), ("q", a["q"], Q)):
-        total = float(np.sum(f * w))
-        if abs(total - load) > tol:
-            raise CaseError(f"{raw.where}: sum {name} w = {total:.6g} but the step's "
-                            f"{'P' if name == 'p' else 'Q'} = {load:.6g} (allowed difference "
-                            f"{CONSISTENCY_RTOL:.0%} of P = {tol:.4g}); likely cause: "
-                            f"{likely_cause(name, total, load, P)}")
+    check_sums(raw, a, load, mu)
+    check_contact_gaps(raw, a)
     low = float(np.min(p))
     top = float(np.max(p))
     if low >= 0:
@@ -235,21 +250,57 @@ def check_consistency(raw: RawStep, a: dict, P: float, Q: float) -> tuple[dict, 
     return a | {"p": np.maximum(p, 0.0)}, note
 
 
-def likely_cause(name: str, total: float, load: float, P: float) -> str:
+def check_sums(raw: RawStep, a: dict, load: tuple, mu: float) -> None:
+    """sum p w = P, sum q w = Q and sum x p w = M (where given) within their tolerances
+    (:data:`CONSISTENCY_RTOL`)."""
+    _, P, Q, M, _ = load
+    w, p = a["w"], a["p"]
+    sums = [("p", float(np.sum(p * w)), P, P, "P"), ("q", float(np.sum(a["q"] * w)), Q, mu * P,
+                                                     "mu P")]
+    if math.isfinite(M):
+        arm = float(np.max(np.abs(a["x"][p > 0]), initial=0.0))
+        sums.append(("x p", float(np.sum(a["x"] * p * w)), M, P * arm, "P max|x| in contact"))
+    for name, total, value, scale, what in sums:
+        tol = CONSISTENCY_RTOL * scale
+        if abs(total - value) > tol:
+            sym = {"p": "P", "q": "Q", "x p": "M"}[name]
+            raise CaseError(f"{raw.where}: sum {name} w = {total:.6g} but the step's {sym} = "
+                            f"{value:.6g} (allowed difference {CONSISTENCY_RTOL:.0%} of {what} "
+                            f"= {tol:.4g}); likely cause: {likely_cause(name, total, value, tol)}")
+
+
+def check_contact_gaps(raw: RawStep, a: dict) -> None:
+    """No node in contact (p > 0) with gap = inf ("contact impossible there")."""
+    bad = np.isinf(a["gap"]) & (a["p"] > 0)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise CaseError(f"{raw.where}: gap = inf (contact impossible) at node {i + 1} (x = "
+                        f"{float(a['x'][i]):.6g}) which carries p = {float(a['p'][i]):.6g} > 0; "
+                        "allowed: inf only where the bodies cannot touch (beyond a sharp corner "
+                        "of the profile), a number elsewhere")
+
+
+def likely_cause(name: str, total: float, load: float, tol: float) -> str:
     """What most likely makes sum f w differ from its load: a sign, a power of ten, widths."""
-    sign_key = "pressure_sign" if name == "p" else "shear_sign"
-    if load != 0 and abs(total + load) <= CONSISTENCY_RTOL * P:
-        return (f"the sign of {name} ({sign_key} = -1 if the file's {name} has the opposite "
-                "sign to its load)")
-    if name == "q" and abs(total) > CONSISTENCY_RTOL * P and abs(load) <= CONSISTENCY_RTOL * P:
-        return (f"q does not sum to the tangential load; check {sign_key} and which body's "
-                "shear is written (q must act on body 1)")
+    if name == "x p":
+        return ("M taken about another point than x = 0 (x_origin), another sign of the moment, "
+                "or M from reactions that include the shear's lever arm")
+    if name == "q" and abs(load) <= tol:
+        return ("a net tangential traction at zero tangential load: check which body's shear is "
+                "written (q must be the traction of body 2 on body 1) and the columns' order")
+    if load != 0 and abs(total + load) <= tol:
+        if name == "q":
+            return ("q and Q have opposite signs in the file itself (shear_sign flips both, so "
+                    "it cannot fix this): write q and Q for the same body and direction (q acts "
+                    "on body 1, Q is the tangential load on body 1)")
+        return ("the sign of p (pressure_sign = -1 if the file's p is tensile-positive, "
+                "compressive p negative)")
     if total != 0 and load != 0:
         k = math.log10(abs(total / load))
         if round(k) != 0 and abs(k - round(k)) < 0.05:
-            return (f"a unit off by a power of ten (sum {name} w / load = {total / load:.3g}): "
-                    "stress or length unit of the nodal table different from the loads' "
-                    "(stress_scale, length_scale, or the file's units)")
+            return (f"the nodal table and the loads in different units (sum {name} w / load = "
+                    f"{total / load:.3g}): stress_scale and length_scale convert both alike, so "
+                    "convert one of them in the file (or values = force vs traction)")
     return ("the tributary lengths w (a given w column, or values = force vs traction), nodes "
             "missing from the table, or the x unit")
 
@@ -300,7 +351,7 @@ class ExternalResult:
         loads = self.loads()
         arrays = [convert(s, self.conventions) for s in self.steps]
         check_same_nodes(self.steps, arrays)
-        checked = [check_consistency(s, a, ld[1], ld[2])
+        checked = [check_consistency(s, a, ld, mu)
                    for s, a, ld in zip(self.steps, arrays, loads, strict=True)]
         arrays = [a for a, _ in checked]
         notes = tuple(n for _, n in checked if n)
@@ -316,17 +367,33 @@ class ExternalResult:
                               n_candidates=int(x.size), fields=None), notes
 
 
-def derived_status(p: np.ndarray, q: np.ndarray, mu: float) -> np.ndarray:
+def derived_status(p: np.ndarray, q: np.ndarray, mu: float, sense: float = 0.0
+                   ) -> np.ndarray:
     """Status of nodes from their tractions (no status column): 0 open where p <= 0, 2 slip
-    where |q| >= (1 - STATUS_EPS) mu p, else 1 stick."""
-    slip = np.abs(q) >= (1.0 - STATUS_EPS) * mu * p
+    where the shear reaches the cone, else 1 stick.  ``sense``: 0 in stage 1 (no slip expected:
+    |q| >= (1 - STATUS_EPS) mu p), else the direction slip can take in this stage, +-1 (stage 2
+    the sign of Q0, stage 3 the opposite: by the Jaeger-Ciavarella principle a stage-3 node at
+    the cone in the stage-2 direction is a frozen stage-2 slip node, i.e. stick): sense q >= mu p
+    - max(STATUS_EPS mu p, SLIP_SLACK mu max p)."""
+    if sense == 0.0:
+        slip = np.abs(q) >= (1.0 - STATUS_EPS) * mu * p
+    else:
+        slack = np.maximum(STATUS_EPS * mu * p, SLIP_SLACK * mu * np.max(p, initial=0.0))
+        slip = sense * q >= mu * p - slack
     return np.where(p > 0, np.where(slip, 2, 1), 0).astype(np.int8)
+
+
+def slip_sense(stage: int, Q0: float) -> float:
+    """The direction slip takes in ``stage`` (0 in stage 1 or without a tangential load)."""
+    if stage == 1 or Q0 == 0:
+        return 0.0
+    return float(np.sign(Q0)) * (1.0 if stage == 2 else -1.0)
 
 
 def _step(i: int, load: tuple, a: dict, mu: float, P0: float, Q0: float) -> fem.FemStep:
     stage, P, Q, M, theta = load
     if a["status"] is None:
-        a = a | {"status": derived_status(a["p"], a["q"], mu)}
+        a = a | {"status": derived_status(a["p"], a["q"], mu, slip_sense(stage, Q0))}
     candidate = ~np.isinf(a["gap"])
     # the gap side locates an edge as the FE model does (NaN gaps: from the pressure side)
     zones, sticks, u_zones, u_sticks = zones_with_uncertainty(
@@ -352,6 +419,32 @@ def check_stages(res: ExternalResult) -> None:
                         f"load), got stage {stages[0]}")
     if 3 in stages and 2 not in stages:
         raise CaseError(f"{res.source}: stage-3 steps need the stage-2 steps before them (Q0)")
+    check_load_order(res.steps, res.loads())
+
+
+#: The load that moves in each stage (index into a loads tuple), its direction and its name.
+STAGE_LOADS = {1: (1, 1.0, "P rises"), 2: (2, 1.0, "Q rises"), 3: (2, -1.0, "Q falls")}
+
+
+def check_load_order(steps: tuple, loads: list) -> None:
+    """Within a stage the steps follow the load path (P up in stage 1, Q up in stage 2, Q down
+    in stage 3, in our signs) to :data:`ORDER_RTOL` of P0: each step is compared with the
+    analytic state of a monotone path, so data listed out of order would be judged against
+    the wrong states."""
+    P0 = max(ld[1] for ld in loads)
+    for k in range(1, len(steps)):
+        (stage, *now), (before, *then) = loads[k], loads[k - 1]
+        if stage != before:
+            continue
+        i, sense, what = STAGE_LOADS[stage]
+        if sense * (now[i - 1] - then[i - 1]) < -ORDER_RTOL * P0:
+            name = "PQ"[i - 1]
+            sign = ("; or Q of the opposite sign to ours (shear_sign = -1: q and Q on body 1, "
+                    "+ in +x)") if stage == 2 and now[i - 1] < 0 else ""
+            raise CaseError(f"{steps[k].where}: step out of load order: {name} = "
+                            f"{now[i - 1]:.6g} after {name} = {then[i - 1]:.6g} in stage {stage} "
+                            f"(in stage {stage} {what}; allowed going back: {ORDER_RTOL:g} of "
+                            f"P0 = {ORDER_RTOL * P0:.3g}); list the steps in load order{sign}")
 
 
 def check_same_nodes(steps: tuple, arrays: list[dict]) -> None:

@@ -29,7 +29,8 @@ from fem.mesh import read_meshio
 
 
 def pvd_entries(path: Path) -> list[tuple[str, str]]:
-    """(part, file) of every DataSet of a .pvd collection, in file order."""
+    """(part, file) of every DataSet of a .pvd collection, in the order of their ``timestep``
+    attributes when every DataSet has one (as ParaView shows them), else in file order."""
     try:
         root = ET.parse(path).getroot()
     except (OSError, ET.ParseError) as exc:
@@ -37,7 +38,20 @@ def pvd_entries(path: Path) -> list[tuple[str, str]]:
     sets = root.findall("./Collection/DataSet")
     if not sets or any("file" not in d.attrib for d in sets):
         raise CaseError(f"{path}: a .pvd needs <Collection> of <DataSet file=...> entries")
+    if all("timestep" in d.attrib for d in sets):
+        sets = sorted(sets, key=lambda d: _timestep(d.attrib["timestep"], path))
     return [(d.attrib.get("part", "0"), d.attrib["file"]) for d in sets]
+
+
+def _timestep(text: str, path: Path) -> float:
+    try:
+        t = float(text)
+    except ValueError:
+        t = math.nan
+    if not math.isfinite(t):
+        raise CaseError(f"{path}: DataSet timestep {text!r} is not allowed; allowed: finite "
+                        "numbers")
+    return t
 
 
 #: What an interface file of a series may be (the reader's error).
@@ -75,7 +89,12 @@ def raw_step(mesh, where: str, conv) -> RawStep:
     check_columns(["x", *names], where, conv)
     cols = {"x": np.asarray(mesh.points[:, 0], float)}
     for n in names:
-        v = np.asarray(mesh.point_data[n], float).ravel()
+        v = np.asarray(mesh.point_data[n], float)
+        if v.ndim > 1 and v.size != v.shape[0]:
+            raise CaseError(f"{where}: point data '{n}' has {v.size // v.shape[0]} components "
+                            "per point; allowed: one number per point (the normal or "
+                            "tangential component, in the sense of docs/external.md)")
+        v = v.ravel()
         bad = np.isnan(v) | (np.isinf(v) & ((n != "gap") | (v < 0)))
         if bad.any():
             raise CaseError(f"{where}: point data '{n}' is {float(v[bad][0])!r} at point "

@@ -145,6 +145,26 @@ def _columns(path, **change) -> None:
      ["unknown header key 'colour'", "allowed"]),
     (lambda m, s: m.write_text("# pressure_sign = 2\n" + m.read_text()),
      ["pressure_sign = 2 is not allowed", "1, -1"]),
+    (lambda m, s: _edit(s, "x,p,q,status", "x,p,q,p"), ["s1.csv, line 1", "'p' given twice"]),
+    (lambda m, s: _edit(s, "x,p,q,status", "x;p;q;status"), ["s1.csv", "separated by ';'",
+                                                            "commas"]),
+    (lambda m, s: _edit(m, "stage,P,Q,M,file", "stage,P,Q,m,file"), ["unknown column 'm'"]),
+    # a step file's own items count in a manifest layout: a misspelt key, loads that disagree
+    (lambda m, s: s.write_text("# pressure_sing = -1\n" + s.read_text()),
+     ["s1.csv, line 1", "unknown header key 'pressure_sing'"]),
+    (lambda m, s: s.write_text("# P = 50.0\n" + s.read_text()),
+     ["s1.csv, line 1", "'P = 50.0' disagrees with the manifest's P = 100.0"]),
+    (lambda m, s: s.write_text("# theta = 1e-3\n" + s.read_text()), ["no theta column"]),
+    (lambda m, s: _edit(m, "1,50.0,0.0,0.0,s0.csv\n1,100.0,0.0,0.0,s1.csv",
+                        "1,100.0,0.0,0.0,s1.csv\n1,50.0,0.0,0.0,s0.csv"),
+     ["steps.csv, line 3", "out of load order", "P = 50 after P = 100 in stage 1"]),
+    (lambda m, s: _edit(m, "1,100.0,0.0,0.0,s1.csv", "1,100.0,0.0,0.5,s1.csv"),
+     ["steps.csv, line 3", "sum x p w = ", "M = 0.5", "P max|x| in contact"]),
+    # a net shear of 0.5 % of P at Q = 0 is 1.7 % of mu P (mu = 0.3): beyond the q check
+    (lambda m, s: _columns(s, q=lambda c: c["q"] + 0.5 / 0.4),
+     ["sum q w = 0.5", "Q = 0", "1% of mu P = 0.3", "net tangential traction"]),
+    (lambda m, s: _columns(s, gap=lambda c: np.where(c["p"] > 0, np.inf, 0.0)),
+     ["s1.csv", "gap = inf", "carries p = "]),
 ])
 def test_bad_files_one_clear_error(tmp_path, mutate, words):
     msg = _bad(tmp_path, mutate)
@@ -301,3 +321,56 @@ def test_external_report_names_the_code_not_a_sparse_backend(tmp_path):
     assert "Code **MyCode 2.1**, DOFs not given, element order not given" in md
     assert "code <b>MyCode 2.1</b> &middot; DOFs not given" in page
     assert "element" in md  # the edge error in elements is on the page
+
+
+def test_byte_order_mark_is_read_past(tmp_path):
+    """A spreadsheet's "CSV UTF-8" starts with a byte-order mark: the same result."""
+    ref = verify(CASE, write_result(tmp_path / "ref")).metrics
+    f = write_result(tmp_path / "bom")
+    for path in (f, f.parent / "s1.csv"):
+        path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    got = verify(CASE, f).metrics
+    for k, v in ref.items():
+        assert got[k] == pytest.approx(v, rel=1e-12, nan_ok=True), k
+
+
+def test_step_file_items_agreeing_with_the_manifest_are_accepted(tmp_path):
+    f = write_result(tmp_path / "same")
+    s1 = f.parent / "s1.csv"
+    s1.write_text("# stage = 1\n# P = 100.0\n# Q = 0.0\n# code = mine\n" + s1.read_text())
+    assert verify(CASE, f).passed
+
+
+def test_vector_point_data_one_clear_error(tmp_path):
+    import meshio
+
+    pvd = write_series(tmp_path / "s")
+    mesh = meshio.read(tmp_path / "s" / "i1.vtu")
+    mesh.point_data["q"] = np.zeros((X.size, 3))
+    mesh.write(tmp_path / "s" / "i1.vtu")
+    with pytest.raises(CaseError, match=r"step 1 \(i1.vtu\): point data 'q' has 3 components"):
+        verify(CASE, pvd)
+
+
+def test_pvd_steps_in_timestep_order(tmp_path):
+    """ParaView orders a collection by its timesteps: so does the reader; a collection whose
+    timesteps put the loads out of order is refused."""
+    ref = verify(CASE, write_series(tmp_path / "s")).metrics
+    pvd = tmp_path / "s" / "series.pvd"
+    text = pvd.read_text()
+    a, b = '<DataSet timestep="0" part="0" file="i0.vtu"/>', \
+        '<DataSet timestep="1" part="0" file="i1.vtu"/>'
+    pvd.write_text(text.replace(a + b, b + a))  # file order reversed, timesteps kept
+    got = verify(CASE, pvd).metrics
+    for k, v in ref.items():
+        assert got[k] == pytest.approx(v, rel=1e-12, nan_ok=True), k
+    pvd.write_text(text.replace('timestep="0"', 'timestep="2"'))  # P = 50 after P = 100
+    with pytest.raises(CaseError, match="out of load order"):
+        verify(CASE, pvd)
+
+
+def test_a_bad_setting_is_named_as_given_by_settings(tmp_path):
+    f = write_result(tmp_path / "r")
+    with pytest.raises(CaseError, match=r"\(--set / settings\): pressure_sign = 0 is not "
+                                        "allowed"):
+        verify(CASE, f, settings={"pressure_sign": "0"})
