@@ -65,6 +65,27 @@ def check_loads(case: Case, res: ExternalResult, hist: fem.FemHistory) -> None:
         _check_step(s, where[s.index], case, P0, Q0, tol_q)
 
 
+def check_infinite_gaps(case: Case, res: ExternalResult, hist: fem.FemHistory) -> None:
+    """``gap = inf`` ("contact impossible", an edge then sits at a sharp corner with no
+    uncertainty) only where the case's profile cannot touch: h0 = inf at the node or at one of
+    its neighbours (a code's grid need not put a node on the corner)."""
+    for s, raw in zip(hist.steps, res.steps, strict=True):
+        x, gap = s.interface.x, s.interface.gap
+        bad = np.flatnonzero(np.isinf(gap))
+        if not bad.size:
+            continue
+        near = np.stack([x[np.clip(bad + k, 0, x.size - 1)] for k in (-1, 0, 1)])
+        beyond = np.isinf(np.asarray(case.profile.h0(near.ravel()), float)).reshape(near.shape)
+        wrong = bad[~beyond.any(axis=0)]
+        if wrong.size:
+            i = int(wrong[0])
+            raise CaseError(f"{raw.where}: gap = inf (contact impossible) at node {i + 1}, x = "
+                            f"{float(x[i]):.6g}, where the case's profile can touch (h0 = "
+                            f"{float(case.profile.h0(np.array([x[i]]))[0]):.4g}); allowed: inf "
+                            "only beyond a sharp corner of the profile (give the gap there, or "
+                            "leave the gap column out)")
+
+
 def _check_step(s, where: str, case: Case, P0: float, Q0: float, tol_q: float) -> None:
     tol_p = LOAD_MATCH_RTOL * case.P
     if s.stage == 1 and (s.P > P0 + tol_p or abs(s.Q) > tol_q):
@@ -171,6 +192,7 @@ def verify(case: Case | str | Path, result: ExternalResult | str | Path,
     res = result if isinstance(result, ExternalResult) else read_result(result, settings)
     hist, notes = res.checked_history(case.mu, case.E, case.nu)
     check_loads(case, res, hist)
+    check_infinite_gaps(case, res, hist)
     hist = clip_stage3(hist)
     eff = result_case(case, hist, samples, res.meta.code)
     t0 = time.perf_counter()

@@ -715,13 +715,28 @@ def stick_runs_of_zone(inside: list, run: tuple[int, int]) -> list:
     return [r for r in inside if r[0] not in run and r[1] not in run]
 
 
+#: A node flagged stick whose shear is at the cone to this fraction of mu p counts as slip for
+#: the zones: tractions cannot tell the two apart there, the flag is the return mapping's tie
+#: (at Q = mu P every node must be at the cone, sum q = mu sum p; our FE flagged two of them
+#: stick, at the cone to 4e-14, a stick zone of up to 1.8 elements where there is none).
+AT_CONE_RTOL = 1e-9
+
+
+def effective_sticks(p: np.ndarray, q: np.ndarray, status: np.ndarray, mu: float
+                     ) -> list[tuple[int, int]]:
+    """Runs of stick nodes whose shear is not at the cone (:data:`AT_CONE_RTOL`)."""
+    inside = mu * p - np.abs(q) > AT_CONE_RTOL * mu * p
+    return runs((status == STICK) & inside)
+
+
 def zones_with_uncertainty(x, p, q, status, candidate, mu, gap=None
                            ) -> tuple[tuple, tuple, tuple, tuple]:
     """(contact zones, stick zones, their edges' uncertainties): :func:`contact_and_stick` with
     per contact zone (u_a, u_b) and per stick zone (u_c, u_d) or None (lengths)."""
     contact = runs(status > OPEN)
     est = _edge_estimates_of(x, p, status, candidate, gap, contact)
-    sticks = runs(status == STICK)
+    sticks = effective_sticks(np.asarray(p, float), np.asarray(q, float), np.asarray(status),
+                              mu)
     aligned, unc = [], []
     for ((a, ua), (b, ub)), (i0, i1) in zip(est, contact, strict=True):
         inside = stick_runs_of_zone([r for r in sticks if i0 <= r[0] and r[1] <= i1],

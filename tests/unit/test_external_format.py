@@ -374,3 +374,13 @@ def test_a_bad_setting_is_named_as_given_by_settings(tmp_path):
     with pytest.raises(CaseError, match=r"\(--set / settings\): pressure_sign = 0 is not "
                                         "allowed"):
         verify(CASE, f, settings={"pressure_sign": "0"})
+
+
+def test_infinite_gap_only_beyond_a_sharp_corner(tmp_path):
+    """gap = inf on the open nodes of a smooth profile (a code's "not evaluated") would snap
+    the edges to nodes with no uncertainty: refused, naming the node."""
+    f = write_result(tmp_path / "r")
+    _columns(f.parent / "s1.csv", gap=lambda c: np.where(c["p"] > 0, 0.0, np.inf))
+    with pytest.raises(CaseError, match=r"s1.csv.*gap = inf \(contact impossible\) at node 1, "
+                                        r"x = -0.2, where the case's profile can touch"):
+        verify(CASE, f)

@@ -228,3 +228,18 @@ def test_polyfit_is_numpys_to_the_bit(deg, n):
     t = np.sort(rng.uniform(-1.0, 0.0, n))
     y = rng.uniform(0.0, 2.0, n)
     assert np.array_equal(_polyfit(t, y, deg), P.polyfit(t, y, deg))
+
+
+def test_stick_flags_at_the_cone_are_slip():
+    """At Q = mu P every node is at the cone (sum q = mu sum p); stick flags there are the
+    return mapping's tie (AT_CONE_RTOL): no stick zone.  Just inside the cone they count."""
+    x = uniform(161)
+    a, mu = 0.6071, 0.5
+    p = np.sqrt(np.clip(a * a - x * x, 0.0, None))
+    q = mu * p
+    status = np.where(p > 0, SLIP, OPEN).astype(np.int8)
+    status[np.argsort(np.abs(x))[:3]] = STICK
+    _, sticks = contact_and_stick(x, p, q * (1 - 1e-14), status, np.ones(x.size, bool), mu)
+    assert sticks == (None,)
+    _, sticks = contact_and_stick(x, p, q * (1 - 1e-6), status, np.ones(x.size, bool), mu)
+    assert sticks != (None,)

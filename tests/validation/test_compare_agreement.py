@@ -75,3 +75,14 @@ def test_punch_beside_cylinder_under_moment_agrees_at_its_library_level():
     """Level 1 used to fail in stage 2 (law residual 1.1e-10 from rounding of the dense
     active-set solve, just above the tolerance); one step of iterative refinement fixes it."""
     assert_agrees(run_case("punch_cylinder_moment"))
+
+
+def test_gross_sliding_q0_equal_to_mu_p_agrees(tmp_path):
+    """Q0 = mu P (Q0_ratio = 1): full slip at Q = +-Q0; the FE's stick flags at the cone there
+    are not a stick zone (fem.results.AT_CONE_RTOL): no full-slip mismatch at level 0."""
+    f = tmp_path / "gross.toml"
+    f.write_text('[profile]\ntype = "cylinder"\nR = 10.0\n[material]\nE = 2e5\nnu = 0.3\n'
+                 '[load]\nP = 100.0\nmu = 0.3\nQ0_ratio = 1.0\n[fem]\nlevel = 0\n')
+    res = run_case(load_case(f))
+    assert res.metrics["full_slip_mismatches"] == 0
+    assert res.passed, res.failures()
