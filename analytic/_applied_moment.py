@@ -25,7 +25,7 @@ from analytic._continuation import (
 )
 from analytic._newton import State, beta_for, fresh_state
 from analytic._sie import Layout, System
-from analytic.errors import ConvergenceError, InputError
+from analytic.errors import ConvergenceError, InputError, TableEndError
 from analytic.profiles import Profile
 
 THETA_XTOL = 1e-13
@@ -65,6 +65,7 @@ class _Rotations:
         self.failed: list[tuple[float, float]] = []  # (from, to) of failed warm starts
         self.joined: set[tuple] = set()  # topologies the joint Newton started from
         self.no_guess: set[float] = set()  # rotations where Newton from the guess failed
+        self.table_ends: dict[float, TableEndError] = {}  # rotations whose contact left the table
 
     def at(self, theta: float, full: bool = True) -> tuple[State, System, float] | None:
         """``(state, system, moment)`` at ``theta``, or None where the solve fails or the body
@@ -84,6 +85,9 @@ class _Rotations:
             if found is None and not full:
                 return None
             st, sys_ = found or solve_from_first_touch(self.profile, self.P, self.A, theta)
+        except TableEndError as exc:  # this rotation runs the contact off the table
+            self.table_ends[theta] = exc
+            return None
         except ConvergenceError:
             return None
         out = (st, sys_, sys_.load_and_moment()[1])
@@ -172,8 +176,8 @@ def _bracket(rot: _Rotations, M: float, theta0: float, step: float):
     P = rot.P
     first = rot.at(theta0)
     if first is None:
-        raise ConvergenceError("fixed-rotation solve failed at the initial rotation",
-                               {"theta": theta0})
+        raise rot.table_ends.get(theta0) or ConvergenceError(
+            "fixed-rotation solve failed at the initial rotation", {"theta": theta0})
     f0 = first[2] - M
     if abs(f0) <= MOMENT_SETTLED * P * first[0].ell:  # theta0 carries M already (symmetry)
         return (theta0, theta0), first

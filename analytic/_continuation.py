@@ -28,7 +28,7 @@ from analytic._topology import (
     pin_nearest,
     shrunk_new_zone,
 )
-from analytic.errors import ConvergenceError
+from analytic.errors import ConvergenceError, TableEndError
 from analytic.profiles import Profile
 
 MAX_TOPOLOGY_CHANGES = 12
@@ -100,6 +100,7 @@ def continue_to(st: State, P_target: float, profile: Profile, A: float,
                 continue
             retries += P_next == P_target
             if retries >= TARGET_RETRIES:
+                _refuse_at_table_end(st, P_target, profile, exc)
                 raise ConvergenceError(
                     f"continuation cannot reach P={P_target:.6g}: the step to it failed "
                     f"{retries} times, the last from P={st.P:.6g}: {exc}",
@@ -107,6 +108,7 @@ def continue_to(st: State, P_target: float, profile: Profile, A: float,
                      "zones": st.layout.zones()}) from exc
             ratio = np.sqrt(P_next / st.P)  # half the failed step (in log P), not of ratio
             if ratio < 1 + 1e-7:
+                _refuse_at_table_end(st, P_target, profile, exc)
                 raise ConvergenceError(f"continuation stalled at P={st.P:.6g}: {exc}",
                                        {"P_reached": st.P, "P_target": P_target,
                                         "zones": st.layout.zones()}) from exc
@@ -115,6 +117,35 @@ def continue_to(st: State, P_target: float, profile: Profile, A: float,
         if P_next == P_target:
             return st, sys_, prev
         ratio = min(ratio * ratio, 16.0)
+
+
+TABLE_END_REACH = 1e-4
+"""A continuation that fails with an edge this close to the end of a tabulated profile's table
+(relative to the edges' span) stopped because the contact reached the end: h0 is unknown beyond
+it (a Hertz zone of half-width 2.5 on a table of +-1 stalled with its edges 2e-8 from the ends,
+"against the feasible set")."""
+
+
+def _refuse_at_table_end(st: State, P_target: float, profile: Profile, exc: Exception) -> None:
+    """Raise :class:`TableEndError` when an edge of ``st`` (the last state reached on the way
+    to ``P_target``) lies within TABLE_END_REACH of an end of the table."""
+    e = st.layout.edges
+    ends = [q for q in profile.open_ends if np.min(np.abs(e - q)) <= TABLE_END_REACH * st.ell]
+    if ends:
+        where = ", ".join(f"x={q!r}" for q in ends)
+        raise TableEndError(
+            f"P={P_target!r} is not allowed on profile={profile.name}: the contact reaches the "
+            f"end of its table at {where} near P={st.P:.6g}{_tilt_text(st)} (zones "
+            f"{_zones_text(st)}), and h0 is unknown beyond it; need a load below that, or a "
+            f"longer table (extend it beyond the contact at P={P_target!r})") from exc
+
+
+def _tilt_text(st: State) -> str:
+    return f" and theta={st.theta:.6g}" if st.theta != 0.0 else ""
+
+
+def _zones_text(st: State) -> str:
+    return ", ".join(f"[{a:.9g}, {b:.9g}]" for a, b in st.layout.zones())
 
 
 PREDICTOR_POINTS = 8  # states of one topology the predictor may extrapolate through

@@ -14,7 +14,7 @@ import numpy as np
 from analytic._guess import centred
 from analytic._newton import Mode, NewtonFailed, State, beta_for, fresh_state, newton
 from analytic._sie import Layout, System
-from analytic.errors import ConvergenceError, InputError
+from analytic.errors import ConvergenceError, InputError, TableEndError
 from analytic.profiles import Profile
 
 START_FRACTION = 2e-3       # first-touch zone size relative to the local feature size
@@ -59,13 +59,49 @@ def _first_solve(layout: Layout, profile: Profile, A: float, theta: float, P_tar
 
 
 def _touch_set(profile: Profile, theta: float) -> list[tuple[float, float, float]]:
+    """The lowest local minima of ``h0 - theta x`` (within a rounding tolerance), those joined
+    by a level run merged into one interval (:func:`_merge_level_runs`).  A table end at that
+    level (:attr:`Profile.open_ends`) is refused: the contact would leave the table."""
     mins = profile.local_minima(theta)
-    if not mins:
+    ends = [(q, float(profile.h0(np.array([q]))[0] - theta * q)) for q in profile.open_ends]
+    if not mins and not ends:
         raise InputError(f"the profile {profile.name} never touches: h0(x) - theta x has no minimum"
                          f" (theta={theta!r})")
-    low = min(m[2] for m in mins)
+    low = min([m[2] for m in mins] + [v for _, v in ends])
     tol = 1e-12 * (profile.scale + abs(low))
-    return [m for m in mins if m[2] <= low + tol]
+    at_end = [q for q, v in ends if v <= low + tol]
+    if at_end:
+        raise TableEndError(_table_end_message(profile, theta, at_end, bool(mins)))
+    return _merge_level_runs(profile, theta, [m for m in mins if m[2] <= low + tol], low + tol)
+
+
+def _table_end_message(profile: Profile, theta: float, at_end: list[float], interior: bool
+                       ) -> str:
+    ends = ", ".join(f"x={q!r}" for q in at_end)
+    what = "lowest set of h0(x) - theta x reaches" if interior else \
+        "minimum of h0(x) - theta x is at"
+    return (f"profile={profile.name} is not allowed: the {what} the end of its table at {ends} "
+            f"(theta={theta!r}); h0 is unknown beyond, so the contact would leave the table: "
+            "need a longer table (extend it so that its lowest points lie inside and h0 rises "
+            "towards both ends)")
+
+
+LEVEL_SAMPLES = 9  # points (ends included) that must lie at the lowest level between two touches
+
+
+def _merge_level_runs(profile: Profile, theta: float, touches: list, level: float) -> list:
+    """Touches joined by a level run of ``h0 - theta x`` (every one of LEVEL_SAMPLES points
+    between them at ``level``) merged into one interval: a spline through equal heights is
+    level, and its minima search lists every sample (399 point minima on a level table gave as
+    many first-touch zones: the solve grew to 0.7 GB)."""
+    out = touches[:1]
+    for m in touches[1:]:
+        xs = np.linspace(out[-1][1], m[0], LEVEL_SAMPLES)
+        if np.all(profile.h0(xs) - theta * xs <= level):
+            out[-1] = (out[-1][0], m[1], min(out[-1][2], m[2]))
+        else:
+            out.append(m)
+    return out
 
 
 def _start_zone(profile: Profile, lo: float, hi: float, size: float, theta: float = 0.0

@@ -57,6 +57,23 @@ def positive(name: str, value: object, what: str = "") -> float:
     return real(name, value, f"a finite {what + ' ' if what else ''}value > 0", lambda v: v > 0)
 
 
+AP_RANGE = (1e-150, 1e150)
+"""Allowed ``A P`` (a length, the indentation's scale): the solver multiplies and divides it by
+lengths of its own size (zone widths ~ sqrt(A P R), the edges' span), which stay normal doubles
+here; beyond, A P = 1e-300 * 1e-300 underflowed to 0 (a raw ZeroDivisionError) and a cylinder's
+residuals overflowed at A P = 1e160."""
+
+
+def load_scale(A: float, P: float) -> float:
+    """``A P`` of a checked compliance and load, refused outside AP_RANGE."""
+    ap = A * P
+    lo, hi = AP_RANGE
+    if not lo <= ap <= hi:
+        raise refuse("A*P", ap, f"{lo:g} <= A*P <= {hi:g} (got A={A!r}, P={P!r}; A P, a "
+                     "length, is the indentation's scale)")
+    return ap
+
+
 def non_negative(name: str, value: object) -> float:
     """A finite number >= 0."""
     return real(name, value, "a finite value >= 0", lambda v: v >= 0)
@@ -111,6 +128,20 @@ def vector(name: str, value: object, min_size: int = 1,
     if arr.size < min_size or not np.all(np.isfinite(arr)) or (test is not None and not test(arr)):
         raise refuse(name, value, need)
     return arr
+
+
+def array(name: str, value: object, need: str = "finite real numbers (a number or an array)"
+          ) -> np.ndarray:
+    """A float array of any shape (a scalar counts as 0-d) of finite real numbers."""
+    if isinstance(value, (str, bytes)) or value is None:
+        raise refuse(name, value, need)
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):
+        raise refuse(name, value, need) from None
+    if arr.dtype.kind not in "iuf" or not np.all(np.isfinite(arr)):
+        raise refuse(name, value, need)
+    return arr.astype(float)
 
 
 def instance(name: str, value: object, cls: type, what: str) -> object:

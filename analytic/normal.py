@@ -131,7 +131,8 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     """
     loads = check.vector("loads", loads, 1, lambda v: bool(np.all(v > 0)),
                          "a non-empty 1-D sequence of finite loads > 0")
-    _, A = _validate(profile, loads[0], A)
+    _, A = _validate(profile, loads.min(), A)
+    check.load_scale(A, float(loads.max()))
     M, theta = check.optional_real("M", M), check.optional_real("theta", theta)
     if M is not None and theta is not None:
         raise InputError("give either M (applied moment) or theta (prescribed rotation), not both")
@@ -181,10 +182,13 @@ def _finish(st: State, sys_: System, profile: Profile, A: float, mode: str,
 
 
 def _validate(profile: Profile, P: float, A: float) -> tuple[float, float]:
-    """Refuse a non-profile, or P, A not finite and > 0 (:mod:`analytic._validate`)."""
+    """Refuse a non-profile, P, A not finite and > 0, or A P outside
+    :data:`analytic._validate.AP_RANGE` (:mod:`analytic._validate`)."""
     check.instance("profile", profile, Profile, "an analytic.profiles.Profile")
     A = check.positive("A", A, "compliance A = 4(1 - nu^2)/E")
-    return check.positive("P", P, "load"), A
+    P = check.positive("P", P, "load")
+    check.load_scale(A, P)
+    return P, A
 
 
 def _validate_theta(profile: Profile, theta: float) -> None:

@@ -92,6 +92,7 @@ def overlapped(profile: Profile, P: float, A: float, theta: float = 0.0) -> Over
     """Free-interpenetration estimate of the contact zones at load P (paper Section 6)."""
     check.instance("profile", profile, Profile, "an analytic.profiles.Profile")
     P, A = check.positive("P", P, "load"), check.positive("A", A, "compliance")
+    check.load_scale(A, P)
     theta = check.real("theta", theta)
     d_hi = 1e-6 * profile.scale
     for _ in range(200):

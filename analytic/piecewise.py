@@ -206,6 +206,20 @@ class Profile:
         return tuple(sorted(set(self.corners) | set(self.ridges)))
 
     @cached_property
+    def open_ends(self) -> tuple[float, ...]:
+        """Finite piece ends where h0 stops without a corner or a neighbouring piece: the ends of
+        a tabulated profile's table.  h0 is unknown beyond them (not a punch's ``+inf``), so a
+        contact zone may not reach them (sorted; empty for the analytic profiles)."""
+        out = set()
+        for k, pc in enumerate(self.pieces):
+            for end, j in ((pc.lo, k - 1), (pc.hi, k + 1)):
+                joined = 0 <= j < len(self.pieces) and end in (self.pieces[j].lo,
+                                                                self.pieces[j].hi)
+                if math.isfinite(end) and not joined and end not in self.corners:
+                    out.add(float(end))
+        return tuple(sorted(out))
+
+    @cached_property
     def _features(self) -> np.ndarray:
         return np.array(sorted(set(self.kinks) | set(self.corners)), float)
 

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from analytic import _validate as check
 from analytic._cauchy_integrals import cauchy, principal_values
 from analytic._traction_panels import Quadrature, normal_of, quadrature, tractions
 from analytic.errors import InputError
@@ -126,20 +127,19 @@ class RuizResult:
 # public API
 # ---------------------------------------------------------------------------------------------
 def _check_nu(nu: float) -> float:
-    nu = float(nu)
-    if not (np.isfinite(nu) and -1.0 < nu <= 0.5):
-        raise InputError(f"nu={nu!r} is not allowed: need Poisson's ratio -1 < nu <= 0.5")
-    return nu
+    return check.real("nu", nu, "Poisson's ratio -1 < nu <= 0.5", lambda v: -1.0 < v <= 0.5)
 
 
 def _points(x, y) -> tuple[np.ndarray, np.ndarray]:
-    x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
-    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
-        raise InputError("x and y must be finite")
-    if np.any(y > 0):
-        raise InputError(f"y={float(np.max(y))!r} is not allowed: body 2 is the half-plane "
+    xa, ya = check.array("x", x), check.array("y", y)
+    try:
+        xa, ya = np.broadcast_arrays(xa, ya)
+    except ValueError:
+        raise check.refuse("y", y, f"an array broadcastable with x (shape {xa.shape})") from None
+    if np.any(ya > 0):
+        raise InputError(f"y={float(np.max(ya))!r} is not allowed: body 2 is the half-plane "
                          "y <= 0")
-    return x, y
+    return xa, ya
 
 
 def surface_stress(solution: NormalSolution | StickSolution, x: np.ndarray | float
@@ -151,9 +151,7 @@ def surface_stress(solution: NormalSolution | StickSolution, x: np.ndarray | flo
     At a singular edge (where p and q are unbounded) the value is not meaningful.
     """
     normal_of(solution)
-    x = np.asarray(x, float)
-    if not np.all(np.isfinite(x)):
-        raise InputError("x must be finite")
+    x = check.array("x", x)
     flat = np.atleast_1d(x).ravel()
     pv = _principal_values(solution, quadrature(solution), flat)
     return (-tractions(solution, flat)[:, 0] + (2.0 / np.pi) * pv[:, 1]).reshape(x.shape)
@@ -230,16 +228,18 @@ def ruiz(state: StickSolution, x: np.ndarray | float | None = None, n: int = 200
     """Ruiz fretting parameter ``max(sxx, 0) |q| |slip|`` on body 2's surface (stage-3 state).
 
     Evaluated with ``sxx`` (:func:`surface_stress`) and ``q`` of ``state`` and the slip
-    accumulated in stage 3 (for ``Q = -Q0`` the slip range of a steady cycle).  ``x`` defaults
-    to ``n`` points across the contact span plus all stick edges.
+    accumulated in stage 3 (for ``Q = -Q0`` the slip range of a steady cycle).  ``x`` (1-D)
+    defaults to ``n`` points across the contact span plus all stick edges (``n``: an integer
+    >= 2).
     """
     if not isinstance(state, StickSolution) or state.stage != 3:
         raise InputError("ruiz needs a stage-3 analytic.StickSolution (solve_stick(normal, mu, "
                          "Q, Q0)), the end of a cycle being Q = -Q0")
+    n = check.integer("n", n, 2)
     if x is None:
         zones = state.normal.zones
-        x = np.linspace(zones[0][0], zones[-1][1], int(n))
-    x = np.atleast_1d(np.asarray(x, float))
+        x = np.linspace(zones[0][0], zones[-1][1], n)
+    x = check.vector("x", x, 1, need="None, or a 1-D sequence of at least 1 finite number")
     value = np.maximum(surface_stress(state, x), 0.0) * np.abs(state.shear(x))
     value = value * np.abs(np.nan_to_num(state.slip(x)))
     i = int(np.argmax(value))

@@ -37,11 +37,13 @@ def test_bad_value_raises_one_input_error_naming_it(call, named: str) -> None:
     assert "allowed" in str(info.value) or "need" in str(info.value)
 
 
-def test_profile_that_never_touches() -> None:
-    """A tabulated profile falling monotonically to the table end has no touch point."""
+def test_profile_that_touches_at_the_table_end() -> None:
+    """A tabulated profile falling monotonically to the table end touches there first, where
+    h0 ends: the error names that end (it said "never touches")."""
     x = np.linspace(0.0, 1.0, 11)
     prof = profiles.tabulated(x, 1.0 - x + 0.1)
-    with pytest.raises(InputError, match="never touches"):
+    with pytest.raises(InputError, match=r"minimum of h0\(x\) - theta x is at the end of its "
+                       r"table at x=1\.0.*longer table"):
         analytic.solve_normal(prof, P, A)
 
 
