@@ -12,6 +12,7 @@ case library.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -55,6 +56,12 @@ FEM_RANGES = {
     "growth": (lambda v: 1 < v <= 2, "1 < growth <= 2"),
     "layout": (lambda v: v in LAYOUTS, " or ".join(repr(v) for v in LAYOUTS)),
 }
+#: A case name becomes a file and folder name of the outputs (``run --vtk DIR/<name>/``, a
+#: report's ``figures/<name>_0.png``): one safe path component of at most NAME_MAX characters.
+NAME_MAX = 100
+NAME_PATTERN = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9_.-]*")
+NAME_ALLOWED = (f"1 to {NAME_MAX} letters, digits, '_', '-' or '.', not starting with '.' and "
+                "without '..' (it names output files and folders)")
 DEFAULT_NU = 0.3  # used to split a given composite compliance A into (E, nu) for the FE side
 
 
@@ -306,6 +313,24 @@ def _tolerances(doc: dict, src: str) -> dict:
     return out
 
 
+def name_problem(name: str) -> str:
+    """Why ``name`` cannot be a case name ('' if it can): see :data:`NAME_ALLOWED`."""
+    if not isinstance(name, str):
+        return f"a string is needed, got {type(name).__name__}"
+    if len(name) > NAME_MAX:
+        return f"it has {len(name)} characters"
+    if not NAME_PATTERN.fullmatch(name) or ".." in name:
+        return "it is not one plain file name"
+    return ""
+
+
+def check_name(name: str, src: str, key: str = "name") -> None:
+    """CaseError naming ``name`` and what is allowed when it cannot be a case name."""
+    why = name_problem(name)
+    if why:
+        raise CaseError(f"{key}={name!r} is not allowed ({why}): need {NAME_ALLOWED} ({src})")
+
+
 def case_fields(doc: dict, name: str = "case", src: str = "case",
                 base: Path | None = None) -> dict[str, Any]:
     """Validate a parsed case table (the schema of ``docs/cases.md``) and return the keyword
@@ -314,6 +339,8 @@ def case_fields(doc: dict, name: str = "case", src: str = "case",
     name = doc.get("name", name)
     if not isinstance(name, str) or not name:
         raise CaseError(f"{_where(src, 'name')} must be a non-empty string, got {name!r}")
+    if "name" in doc:
+        check_name(name, src)
     desc = doc.get("description", "")
     if not isinstance(desc, str):
         raise CaseError(f"{_where(src, 'description')} must be a string, got {desc!r}")

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from numbers import Integral
@@ -24,7 +25,15 @@ import numpy as np
 from analytic import _validate as check
 from analytic.errors import InputError as AnalyticInputError
 from analytic.profiles import Profile
-from compare.case_format import FEM_KEYS, FEM_RANGES, PROFILE_SCHEMAS, FemSettings, case_fields
+from compare.case_format import (
+    FEM_KEYS,
+    FEM_RANGES,
+    NAME_ALLOWED,
+    PROFILE_SCHEMAS,
+    FemSettings,
+    case_fields,
+    name_problem,
+)
 from compare.errors import CaseError
 from compare.tolerances import DEFAULTS as DEFAULT_TOLERANCES
 
@@ -279,7 +288,33 @@ def read_case(path: str | Path) -> Case:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise CaseError(f"{path.name}: not valid TOML: {exc}") from None
+    if "name" not in doc:
+        _check_stem(path)
     return case_from_dict(doc, name=path.stem, src=path.name, base=path.parent)
+
+
+def _check_stem(path: Path) -> None:
+    """CaseError when the file name of a case file without a ``name`` key cannot be its case
+    name (it names output files and folders)."""
+    why = name_problem(path.stem)
+    if why:
+        raise CaseError(f"case file {path.name}: its case name {path.stem!r} (the file name "
+                        f"without .toml) is not allowed ({why}): need {NAME_ALLOWED}; rename "
+                        "the file or give the case a name = \"...\" key")
+
+
+def check_unique_names(cases: Sequence[Case], what: str) -> None:
+    """CaseError when two of ``cases`` have the same name: their output files (``what``, e.g.
+    "report figures and VTK series") would overwrite each other."""
+    seen: dict[str, str] = {}
+    for case in cases:
+        if case.name in seen:
+            first, second = seen[case.name] or "given", case.source or "given"
+            where = f"{first} twice" if first == second else f"{first} and {second}"
+            raise CaseError(f"two cases are named {case.name!r} ({where}): their {what} would "
+                            "overwrite each other; give each case once, each case file with "
+                            "its own name = \"...\"")
+        seen[case.name] = case.source
 
 
 def library_dir() -> Path:

@@ -1,9 +1,12 @@
 """Command line ``multicontact``: list, solve, fem, run, verify, converge, report.
 
 Exit codes: 0 the FE and analytic solutions agree (or nothing to compare), 1 a tolerance
-failed, 2 bad input (one message on stderr, nothing written), 3 a solver did not converge.
-``--json`` prints machine-readable output on stdout (an error also as ``{"error": {"kind",
-"message", "exit_code"}}``); progress goes to stderr.
+failed, 2 bad input (one message on stderr, nothing written), 3 a solver did not converge
+(the message names the case), 130 / 143 interrupted by SIGINT (Ctrl-C) / SIGTERM (one line
+``multicontact: interrupted``; unfinished output is removed, as on any error), 141 the reader
+of stdout went away (e.g. ``| head``: the rest of the output is dropped quietly, like a
+program ended by SIGPIPE).  ``--json`` prints machine-readable output on stdout (an error also
+as ``{"error": {"kind", "message", "exit_code"}}``); progress goes to stderr.
 """
 
 from __future__ import annotations
@@ -14,7 +17,14 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-EXIT_OK, EXIT_FAIL, EXIT_INPUT, EXIT_SOLVER = 0, 1, 2, 3
+from compare.exits import (
+    EXIT_FAIL,
+    EXIT_OK,
+    EXIT_SOLVER,
+    report_error,
+    run_command,
+    solver_errors,
+)
 
 
 def _progress():
@@ -110,21 +120,20 @@ def cmd_solve(args) -> int:
 def cmd_fem(args) -> int:
     import fem
     from compare.analytic_side import solve_normal_case
-    from compare.errors import CaseError
     from compare.fem_side import run_fem
-    from compare.fileio import owned_output, plan_output
+    from compare.fileio import check_apart, owned_output, plan_output
 
+    _check_fem_options(args)
     case = _case(args, args.case)
-    if args.out and args.export and Path(args.out).resolve() == Path(args.export).resolve():
-        raise CaseError(f"-o {args.out} and --export {args.export}: give two folders (the VTK "
-                        "series and the exchange format are separate outputs)")
-    plans = {what: plan_output(d, what, args.force)
-             for what, d in (("fem", args.out), ("export", args.export)) if d}
+    check_apart({"-o": args.out, "--export": args.export})
+    plans = {what: plan_output(d, what, args.force, expected=names)
+             for what, d, names in (("fem", args.out, ("history.pvd",)),
+                                    ("export", args.export, ("steps.csv",))) if d}
     hist = run_fem(case, solve_normal_case(case))
     pvd = None
     if args.out:
         with owned_output(args.out, "fem", args.force, plans["fem"]) as tmp:
-            fem.write_vtk(hist, tmp, steps=args.vtk)
+            fem.write_vtk(hist, tmp, steps=args.vtk or "ends")
         pvd = plans["fem"].out / "history.pvd"
     if args.export:
         from compare.external import write_result
@@ -149,28 +158,71 @@ def cmd_fem(args) -> int:
     return EXIT_OK
 
 
-def cmd_run(args) -> int:
-    from compare.fileio import owned_output, plan_output
-    from compare.run import run_case
-    from compare.testing import format_checks
+def _refuse(message: str) -> None:
+    """Bad or contradictory options: exit 2 with ``message``, before anything is computed."""
+    from compare.errors import CaseError
 
+    raise CaseError(message)
+
+
+def _check_fem_options(args) -> None:
+    """``fem``: --vtk shapes the VTK series of -o; --force applies to -o and --export."""
+    if args.vtk is not None and not args.out:
+        _refuse(f"--vtk {args.vtk} applies to the VTK series written with -o DIR: add -o DIR "
+                "or leave --vtk out")
+    if args.force and not (args.out or args.export):
+        _refuse("--force applies to the folder of -o DIR or --export DIR: add one of them or "
+                "leave --force out")
+
+
+def cmd_run(args) -> int:
+    from compare.cases import check_unique_names
+    from compare.fileio import plan_output
+
+    if args.force and not args.vtk:
+        _refuse("--force applies to the folder of --vtk DIR: add --vtk DIR or leave --force out")
     cases = [_case(args, n) for n in args.cases]
-    plan = plan_output(args.vtk, "run", args.force) if args.vtk else None
-    results = []
+    plan = None
+    if args.vtk:
+        check_unique_names(cases, "VTK series (--vtk DIR/<name>/)")
+        plan = plan_output(args.vtk, "run", args.force,
+                           expected=tuple(f"{c.name}/" for c in cases))
+    results: list = []
+    try:
+        _run_cases(cases, args, plan, results)
+    except solver_errors() as exc:  # name the case; the finished ones are printed first
+        failed = cases[len(results)].name
+        if not args.json:
+            _print_results(results, False)
+        return report_error(args, "solver", f"solver did not converge in case {failed}: {exc}",
+                      EXIT_SOLVER, {"results": [r.summary() for r in results]})
+    _print_results(results, args.json)
+    return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
+
+
+def _run_cases(cases: list, args, plan, results: list) -> None:
+    """Run ``cases`` in order, appending each result to ``results`` (the VTK folder of --vtk
+    is written only when every case ran)."""
+    from compare.fileio import child, owned_output
+    from compare.run import run_case
+
     with owned_output(args.vtk, "run", args.force, plan) if plan else _no_dir() as root, \
             _progress() as prog:
         task = prog.add_task("running cases", total=len(cases))
         for case in cases:
             prog.update(task, description=f"running {case.name}")
-            results.append(run_case(case, vtk_dir=root and root / case.name))
+            results.append(run_case(case, vtk_dir=root and child(root, case.name)))
             prog.advance(task)
-    if args.json:
+
+
+def _print_results(results: list, as_json: bool) -> None:
+    from compare.testing import format_checks
+
+    if as_json:
         _print_json([r.summary() for r in results])
-    else:
-        for r in results:
-            print(format_checks(r.checks, f"{r.case.name}: "
-                                f"{'agrees' if r.passed else 'FAILS'}"))
-    return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
+        return
+    for r in results:
+        print(format_checks(r.checks, f"{r.case.name}: {'agrees' if r.passed else 'FAILS'}"))
 
 
 def _no_dir():
@@ -192,16 +244,16 @@ def _settings(items: Sequence[str] | None) -> dict:
 
 
 def cmd_verify(args) -> int:
-    from compare.convergence import study_values
     from compare.fileio import plan_output
     from compare.testing import format_checks
     from compare.verify import measurement_lines, verify, write_verify_report
 
+    _check_verify_options(args)
     if args.out:  # refused before anything is computed
         plan_output(args.out, "verify", args.force)
     if len(args.result) > 1:
         if args.out:
-            study_values("h", args.fem_levels)
+            _fem_levels(args)
         return _verify_sequence(args)
     res = verify(args.case, args.result[0], samples=args.samples, settings=_settings(args.set))
     report = write_verify_report(res, args.out, force=args.force) if args.out else None
@@ -219,6 +271,34 @@ def cmd_verify(args) -> int:
     return EXIT_OK if res.passed else EXIT_FAIL
 
 
+#: Levels of our own FE's convergence study beside a mesh sequence's report (--fem-levels).
+DEFAULT_FEM_LEVELS = (0, 1, 2)
+
+
+def _check_verify_options(args) -> None:
+    """``verify``: --force applies to -o; --fem-levels to the report of a mesh sequence."""
+    if args.force and not args.out:
+        _refuse("--force applies to the report folder of -o DIR: add -o DIR or leave --force "
+                "out")
+    if args.fem_levels is not None and not (args.out and len(args.result) > 1):
+        _refuse("--fem-levels applies to the report (-o DIR) of a mesh sequence (several "
+                "results): add them or leave --fem-levels out")
+
+
+def _fem_levels(args) -> list[int]:
+    """--fem-levels (default DEFAULT_FEM_LEVELS), refused by that name unless refining."""
+    from compare.convergence import study_values
+    from compare.errors import CaseError
+
+    levels = DEFAULT_FEM_LEVELS if args.fem_levels is None else args.fem_levels
+    try:
+        return study_values("h", levels)
+    except CaseError as exc:
+        given = " ".join(str(v) for v in levels)
+        why = str(exc).partition(" is not allowed")[2] or f": {exc}"
+        raise CaseError(f"--fem-levels {given} is not allowed{why}") from None
+
+
 def _verify_sequence(args) -> int:
     """``verify CASE R1 R2 ...``: the results as a mesh sequence (compare.verify_sequence); the
     report (-o) shows our own FE's h-convergence (--fem-levels) on the same axes."""
@@ -229,7 +309,7 @@ def _verify_sequence(args) -> int:
                              settings=_settings(args.set))
     report = None
     if args.out:
-        ours = convergence(_case(args, args.case), levels=args.fem_levels)
+        ours = convergence(_case(args, args.case), levels=_fem_levels(args))
         report = write_sequence_report(seq, args.out, reference=ours, force=args.force)
     if args.json:
         _print_json(seq.summary() | ({"index": report["index"]} if report else {}))
@@ -240,14 +320,30 @@ def _verify_sequence(args) -> int:
     return EXIT_OK if seq.converges else EXIT_FAIL
 
 
+#: Levels of ``converge --kind h`` without --levels.
+DEFAULT_LEVELS = (0, 1, 2)
+
+
+def _check_converge_options(args) -> None:
+    """``converge``: --levels are the runs of --kind h, --values those of penalty / domain."""
+    if args.kind == "h" and args.values is not None:
+        _refuse("--values applies to --kind penalty or domain; --kind h runs the mesh levels "
+                "of --levels")
+    if args.kind != "h" and args.levels is not None:
+        _refuse(f"--levels applies to --kind h; --kind {args.kind} runs the case's level with "
+                "the factors of --values")
+
+
 def cmd_converge(args) -> int:
     from compare.convergence import convergence, convergence_text
 
+    _check_converge_options(args)
+    levels = DEFAULT_LEVELS if args.levels is None else args.levels
     case = _case(args, args.case)
     with _progress() as prog:
-        n = len(args.levels) if args.kind == "h" else len(args.values or (0, 0, 0))
+        n = len(levels) if args.kind == "h" else len(args.values or (0, 0, 0))
         task = prog.add_task(f"{args.kind}-convergence of {case.name}", total=n)
-        st = convergence(case, levels=args.levels, kind=args.kind, values=args.values,
+        st = convergence(case, levels=levels, kind=args.kind, values=args.values,
                          progress=lambda i, n: prog.update(task, completed=i),
                          phase_locked=args.phase_locked)
     if args.json:
@@ -257,39 +353,64 @@ def cmd_converge(args) -> int:
     return EXIT_OK if st.converges else EXIT_FAIL
 
 
-def cmd_report(args) -> int:
-    import time
+#: Output folder of ``report`` without -o.
+DEFAULT_REPORT_DIR = "report"
 
+
+class _Steps:
+    """Progress of a report on stderr: ``[i of N, elapsed] message`` per finished unit."""
+
+    def __init__(self, units: list[str]):
+        import time
+
+        self.units, self.done, self.t0 = units, 0, time.perf_counter()
+
+    def step(self, msg: str) -> None:
+        self.done += 1
+        print(f"  [{self.done} of {len(self.units)}, {_elapsed(self.t0)}] {msg}",
+              file=sys.stderr, flush=True)
+
+    def current(self) -> str:
+        """The unit being worked on (the units finish in order)."""
+        return self.units[self.done] if self.done < len(self.units) else "the report pages"
+
+
+def _report_inputs(args) -> tuple[list, dict]:
+    """The cases and the convergence studies (name -> levels) of ``report``, refused (exit 2)
+    before anything runs."""
     from compare.cases import load_case
     from compare.convergence import study_values
-    from compare.fileio import plan_output
-    from compare.report import (
-        DEFAULT_CONVERGENCE,
-        DEFAULT_STUDY_LEVELS,
-        DEFAULT_SUITE,
-        REPORT_FILES,
-        write_report,
-    )
+    from compare.report import DEFAULT_CONVERGENCE, DEFAULT_STUDY_LEVELS, DEFAULT_SUITE
 
     cases = [load_case(c) for c in args.cases or DEFAULT_SUITE]  # bad input: before the banner
     studied = DEFAULT_CONVERGENCE if args.convergence is None else args.convergence
+    if args.levels and not studied:
+        _refuse("--levels sets the levels of the convergence studies, and --convergence without "
+                "a case asks for none: name a case after --convergence or leave --levels out")
     conv = {n: tuple(study_values("h", args.levels or DEFAULT_STUDY_LEVELS)) for n in studied}
-    plan_output(args.out, "report", args.force, expected=REPORT_FILES)
-    total = len(cases) + len(conv) + (0 if args.no_fig5 else 1)
-    t0 = time.perf_counter()
-    done = 0
+    return cases, conv
+
+
+def cmd_report(args) -> int:
+    from compare.fileio import plan_output
+    from compare.report import REPORT_FILES, write_report
+
+    cases, conv = _report_inputs(args)
+    out = args.out or DEFAULT_REPORT_DIR
+    plan_output(out, "report", args.force, expected=REPORT_FILES)
+    steps = _Steps([f"case {c.name}" for c in cases]
+                   + [f"the convergence study of {n}" for n in conv]
+                   + ([] if args.no_fig5 else ["the Fig. 5 study"]))
     studies = f"{len(conv)} convergence stud{'y' if len(conv) == 1 else 'ies'}"
     print(f"multicontact report: {len(cases)} cases, {studies}"
-          f"{'' if args.no_fig5 else ', the Fig. 5 study'} into {args.out} (a case takes 5-40 s; "
+          f"{'' if args.no_fig5 else ', the Fig. 5 study'} into {out} (a case takes 5-40 s; "
           "two run at a time)", file=sys.stderr, flush=True)
-
-    def step(msg: str) -> None:
-        nonlocal done
-        done += 1
-        print(f"  [{done} of {total}, {_elapsed(t0)}] {msg}", file=sys.stderr, flush=True)
-
-    summary = write_report(cases, args.out, convergence_cases=conv, fig5=not args.no_fig5,
-                           progress=step, vtk=args.vtk, force=args.force)
+    try:
+        summary = write_report(cases, out, convergence_cases=conv, fig5=not args.no_fig5,
+                               progress=steps.step, vtk=args.vtk or "ends", force=args.force)
+    except solver_errors() as exc:  # the units before it are listed as they finished
+        return report_error(args, "solver", f"solver did not converge in {steps.current()}: {exc}; "
+                      "no report was written", EXIT_SOLVER)
     if args.json:
         _print_json(summary)
     else:
@@ -323,7 +444,7 @@ def _force(sp: argparse.ArgumentParser) -> None:
 
 
 def _vtk_steps(sp: argparse.ArgumentParser) -> None:
-    sp.add_argument("--vtk", choices=("ends", "all"), default="ends",
+    sp.add_argument("--vtk", choices=("ends", "all"),
                     help="VTK steps: 'ends' (default): the interface at the end of each stage "
                          "and the bodies under the largest load; 'all': every step")
 
@@ -370,13 +491,14 @@ def parser() -> argparse.ArgumentParser:
                     help="compare at every stage-2/3 step (default) or at the case's samples")
     sp.add_argument("--set", action="append", metavar="KEY=VALUE",
                     help="override a header item (convention or meta data), repeatable")
-    sp.add_argument("--fem-levels", type=int, nargs="+", default=[0, 1, 2],
+    sp.add_argument("--fem-levels", type=int, nargs="+",
                     help="a sequence's report: levels of our own FE's convergence study drawn "
                          "beside it (default 0 1 2)")
     sp = add("converge", cmd_converge, "convergence study (h, penalty or domain size)")
     sp.add_argument("case")
     sp.add_argument("--kind", choices=("h", "penalty", "domain"), default="h")
-    sp.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2])
+    sp.add_argument("--levels", type=int, nargs="+",
+                    help="mesh levels of --kind h (default 0 1 2)")
     sp.add_argument("--values", type=float, nargs="+",
                     help="penalty factors (inf: augmented Lagrangian) or size factors (kinds "
                          "penalty / domain)")
@@ -385,7 +507,8 @@ def parser() -> argparse.ArgumentParser:
                          "error then does not swing with the edge's place between nodes)")
     sp = add("report", cmd_report, "verification report (index.html, report.md, summary.json)")
     sp.add_argument("cases", nargs="*", help="cases (default: the default suite)")
-    sp.add_argument("-o", "--out", default="report", help="output directory (default report)")
+    sp.add_argument("-o", "--out", help=f"output directory (default {DEFAULT_REPORT_DIR}; with "
+                    "--sweep DIR: default DIR/report)")
     sp.add_argument("--convergence", nargs="*", metavar="CASE",
                     help="cases with an h-convergence study (default: hertz; none if empty)")
     sp.add_argument("--levels", type=int, nargs="+",
@@ -402,26 +525,7 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``multicontact`` console script; returns the exit code."""
-    args = parser().parse_args(argv)
-    import analytic.errors
-    import fem.errors
-    from compare.errors import CaseError
-
-    try:
-        return args.func(args)
-    except (CaseError, analytic.errors.InputError, fem.errors.InputError) as exc:
-        return _error(args, "input", f"error: {exc}", EXIT_INPUT)
-    except (analytic.errors.ConvergenceError, fem.errors.ConvergenceError) as exc:
-        return _error(args, "solver", f"solver did not converge: {exc}", EXIT_SOLVER)
-
-
-def _error(args, kind: str, message: str, code: int) -> int:
-    """The message on stderr and, with --json, a JSON error object on stdout."""
-    print(f"multicontact: {message}", file=sys.stderr)
-    if getattr(args, "json", False):
-        print(json.dumps({"error": {"kind": kind, "message": message, "exit_code": code}},
-                         indent=1))
-    return code
+    return run_command(lambda: parser().parse_args(argv))
 
 
 if __name__ == "__main__":

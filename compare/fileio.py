@@ -6,15 +6,24 @@ sweep report) writes through :func:`owned_output`:
 
 - ``DIR`` is checked before anything is computed (:func:`plan_output`): the current directory,
   the home directory, the file-system root and any folder holding one of them are refused
-  outright; a ``DIR`` holding files multicontact did not write there, or the output of another
-  command, is refused unless ``force`` is given.
+  outright; so is a ``DIR`` (or a folder of the previous output in it) where no file can be
+  made; a ``DIR`` holding files multicontact did not write there, or the output of another
+  command, is refused unless ``force`` is given.  With ``force`` the command writes beside
+  those files and never deletes or overwrites them: a file (or folder) it writes whose name is
+  taken by a file it did not write, or a folder of its output that is a file or a link there,
+  is refused.
 - multicontact recognises its own output by the manifest :data:`OWNED_FILE` it writes into
-  ``DIR`` (the command and every file it wrote).
+  ``DIR`` (the command and every file it wrote).  Only the files of the same command's previous
+  output are ever replaced or removed; another command's output counts as files this command
+  did not write (with ``force`` the manifest then lists the new command's files).
 - The new output is written into a temporary folder next to ``DIR``; a failure or an interrupt
   while it is being made leaves ``DIR`` as it was.  At the end, a new ``DIR`` is renamed into
   place; into an existing one, the previous output's files are swapped for the new ones in one
-  transaction (rolled back if a rename fails), and files multicontact did not write are never
+  transaction (rolled back if a rename fails), and files the command did not write are never
   touched: a new file that would overwrite one is refused.
+- A case name becomes a path only through :func:`child` (one path component, inside the
+  output folder); :func:`check_apart` refuses two outputs of one command nested in each
+  other.
 - Directories are created with the user's umask (``tempfile.mkdtemp`` alone would make them
   0700).
 """
@@ -25,10 +34,10 @@ import json
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from compare.errors import CaseError
 
@@ -63,8 +72,9 @@ def umask_mode(mode: int = 0o777) -> int:
 @dataclass(frozen=True)
 class OutputPlan:
     """A checked output directory: its absolute path, the command writing it, the files of
-    the previous output there (relative paths; empty for a new or empty directory) and whether
-    the user forced it."""
+    that command's previous output there when it was planned (relative paths; empty for a new
+    folder or one without that command's output; the swap goes by the manifest it finds then)
+    and whether the user forced it."""
 
     out: Path
     command: str
@@ -108,8 +118,47 @@ def read_owned(out: Path) -> dict | None:
 
 
 def _foreign(out: Path, owned: dict | None) -> list[str]:
+    """The files of ``out`` no multicontact command wrote (not in its manifest ``owned``)."""
     known = set(owned["files"]) if owned else set()
     return [f for f in _files(out) if f != OWNED_FILE and f not in known]
+
+
+def _mine(owned: dict | None, command: str) -> set[str]:
+    """The only files ``command`` may replace or remove: those of its own previous output
+    according to the manifest ``owned``, and the manifest (replaced by the new one; another
+    command's files in the folder are then kept as files ``command`` did not write)."""
+    if owned is None:
+        return set()
+    return {OWNED_FILE} | (set(owned["files"]) if owned["command"] == command else set())
+
+
+def _blocked(out: Path, names: Iterable[str], mine: set[str]) -> list[str]:
+    """The paths (relative to ``out``) that writing ``names`` (files; a name ending in '/' is a
+    folder) would overwrite or write through although the command did not write them (not in
+    ``mine``): a file, folder or link where a file goes, a file or link where a folder goes."""
+    bad = set()
+    for name in names:
+        parts = PurePosixPath(name.rstrip("/")).parts
+        for k in range(1, len(parts) + 1):
+            rel = "/".join(parts[:k])
+            path = out / rel
+            if rel in mine or not (path.exists() or path.is_symlink()):
+                continue
+            is_file = k == len(parts) and not name.endswith("/")
+            if is_file or path.is_symlink() or not path.is_dir():
+                bad.add(rel)
+                break
+    return sorted(bad)
+
+
+def _refuse_blocked(out: str | Path, command: str, blocked: list[str], done: str,
+                    hint: str = "") -> None:
+    """CaseError naming the ``blocked`` paths (:func:`_blocked`), if any."""
+    if blocked:
+        raise CaseError(f"output folder {out}: `multicontact {command}` would overwrite (or "
+                        f"write through) files it did not write there ({_named(blocked)}: names "
+                        f"of files or folders it writes); they are kept and nothing was {done}. "
+                        f"Choose a new folder{hint}")
 
 
 def _named(files: list[str]) -> str:
@@ -156,36 +205,80 @@ def plan_output(out: str | Path, command: str, force: bool = False,
     """Check the output directory ``out`` of ``command`` before anything is computed.
 
     Raises :class:`compare.errors.CaseError` (the CLI's exit 2) when ``out`` is refused: see
-    the module docstring.  ``force`` allows replacing another command's output and writing
-    beside files multicontact did not write (those are kept); ``expected`` names files the
-    command will write, so that one that would overwrite a foreign file is refused now.
+    the module docstring.  ``force`` allows writing beside files ``command`` did not write there
+    (a user's files, another command's output): those are kept, never deleted or overwritten.
+    ``expected`` names files the command will write (a name ending in '/': a folder), so that
+    one that would overwrite a file it did not write, or a folder of it taken by a file or a
+    link, is refused now rather than after the computation.  The folder itself (and the
+    folders of the previous output) must be writable: the swap renames files in them.
     """
     path = _folder(out, "multicontact writes only into a folder of its own, e.g. -o report",
                    "give a folder (new or one that multicontact wrote)")
     if not path.exists():
         return OutputPlan(path, command, (), force)
     owned = read_owned(path)
-    foreign = _foreign(path, owned)
-    clash = sorted(set(foreign) & set(expected))
-    if clash and force:
-        raise CaseError(f"output folder {out}: --force would overwrite files multicontact did "
-                        f"not write there ({_named(clash)}); nothing was written. Choose a new "
-                        f"folder{_legacy_hint(owned, foreign)}")
+    mine = _mine(owned, command)
     if not force:
-        if foreign:
-            other = (f" beside the output of `multicontact {owned['command']}`"
-                     if owned and owned["command"] != command else "")
-            raise CaseError(
-                f"output folder {out}: holds files multicontact did not write there "
-                f"({_named(foreign)}){other}; nothing was written. Choose a new folder, or add "
-                "--force to write beside them (only multicontact's own files there are replaced)"
-                f"{_legacy_hint(owned, foreign)}")
-        if owned and owned["command"] != command:
-            raise CaseError(
-                f"output folder {out}: holds the output of `multicontact {owned['command']}`; "
-                f"nothing was written. Choose another folder for `{command}`, or add --force "
-                "to replace it")
-    return OutputPlan(path, command, tuple(owned["files"]) if owned else (), force)
+        _refuse_unforced(out, command, owned, _foreign(path, owned))
+    _refuse_blocked(out, command, _blocked(path, (*expected, OWNED_FILE), mine), "written",
+                    _legacy_hint(owned, _foreign(path, owned)))
+    for where in _own_folders(path, mine):
+        _probe(out, where)
+    return OutputPlan(path, command, tuple(sorted(mine - {OWNED_FILE})), force)
+
+
+def _refuse_unforced(out: str | Path, command: str, owned: dict | None,
+                     foreign: list[str]) -> None:
+    """CaseError when ``out`` holds files no multicontact command wrote (``foreign``) or the
+    output of another command (without ``force``)."""
+    other = owned["command"] if owned and owned["command"] != command else ""
+    if foreign:
+        beside = f" beside the output of `multicontact {other}`" if other else ""
+        raise CaseError(
+            f"output folder {out}: holds files `multicontact {command}` did not write there "
+            f"({_named(foreign)}){beside}; nothing was written. Choose a new folder, or add "
+            f"--force to write beside them (they are kept; only `multicontact {command}`'s own "
+            f"earlier files there are replaced){_legacy_hint(owned, foreign)}")
+    if other:
+        raise CaseError(
+            f"output folder {out}: holds the output of `multicontact {other}`; nothing was "
+            f"written. Choose another folder for `{command}`, or add --force to write beside it "
+            f"(its files are kept, never deleted or overwritten)")
+
+
+def _own_folders(path: Path, mine: set[str]) -> list[Path]:
+    """``path`` and the existing folders of the previous output ``mine`` in it: where the swap
+    renames files."""
+    dirs = {path} | {(path / f).parent for f in mine}
+    return sorted(d for d in dirs if d.is_dir() and not d.is_symlink())
+
+
+def check_apart(folders: Mapping[str, str | Path | None]) -> None:
+    """CaseError when two of one command's output folders (``folders``: option -> folder,
+    None or '' when not given) are the same folder or one is inside the other: each is written
+    as a whole and would find the other's files in it."""
+    given = [(opt, d, Path(d).expanduser().resolve()) for opt, d in folders.items() if d]
+    for k, (opt1, d1, p1) in enumerate(given):
+        for opt2, d2, p2 in given[k + 1:]:
+            if p1 == p2 or p1 in p2.parents or p2 in p1.parents:
+                raise CaseError(f"{opt1} {d1} and {opt2} {d2}: give two separate folders, "
+                                "neither inside the other (each is a separate output); "
+                                "nothing was computed")
+
+
+def child(root: Path, name: str, suffix: str = "") -> Path:
+    """``root / (name + suffix)`` for a case name in an output path.  CaseError unless ``name``
+    is one path component (not empty, no '/' or '\\', not starting with '.') and the path
+    stays directly inside ``root``: a case name never writes elsewhere."""
+    part = f"{name}{suffix}" if isinstance(name, str) else ""
+    path = root / part
+    ok = (bool(name) and not part.startswith(".") and not {"/", "\\", "\0"} & set(part)
+          and Path(os.path.normpath(path)).parent == Path(os.path.normpath(root)))
+    if not ok:
+        raise CaseError(f"case name {name!r} cannot name a file in the output folder: a case "
+                        "name is one file name (letters, digits, '_', '-', '.'; not starting "
+                        "with '.'); nothing was written there")
+    return path
 
 
 def check_store(out: str | Path, marker: str, force: bool = False) -> Path:
@@ -235,14 +328,16 @@ def _commit(plan: OutputPlan, tmp: Path) -> None:
     if owned and owned["command"] != plan.command and not plan.force:  # written meanwhile
         raise CaseError(f"output folder {plan.out}: now holds the output of `multicontact "
                         f"{owned['command']}`; nothing was replaced. Choose another folder")
-    previous = sorted(set(owned["files"] if owned else ()) | set(plan.previous))
-    clash = sorted(set(_foreign(plan.out, owned)) & set(files))
-    if clash:
-        raise CaseError(f"output folder {plan.out}: would overwrite files multicontact did not "
-                        f"write there ({_named(clash)}); nothing was replaced. Choose a new "
-                        "folder")
-    _swap(plan.out, tmp, [f for f in previous if (plan.out / f).exists()] + [OWNED_FILE],
-          files + [OWNED_FILE])
+    mine = _mine(owned, plan.command)  # the manifest now: only this command's files go
+    _refuse_blocked(plan.out, plan.command, _blocked(plan.out, files + [OWNED_FILE], mine),
+                    "replaced")
+    old = [f for f in sorted(mine) if (plan.out / f).exists() or (plan.out / f).is_symlink()]
+    try:
+        _swap(plan.out, tmp, old, files + [OWNED_FILE])
+    except OSError as exc:
+        raise CaseError(f"output folder {plan.out}: cannot write in it ({exc.strerror or exc}: "
+                        f"{exc.filename}); nothing was replaced, the previous output is as it "
+                        "was") from None
 
 
 def _swap(out: Path, tmp: Path, old: list[str], new: list[str]) -> None:

@@ -30,10 +30,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from compare._forkserver import forkserver_context, ignore_interrupts, kill_pool
-from compare.cases import Case, case_from_dict, load_case
+from compare.cases import Case, case_from_dict, check_unique_names, load_case
 from compare.convergence import ConvergenceStudy, convergence
 from compare.errors import CaseError
-from compare.fileio import owned_output, plan_output
+from compare.fileio import child, owned_output, plan_output
 from compare.report import figures, region, zones
 from compare.report.fig5 import fig5_rows
 from compare.report.html import case_html, case_md, page, study_html, verdict_text
@@ -57,8 +57,9 @@ Progress = Callable[[str], None]
 #: of the default suite's 14.3 MB report, where bodies and interface at every stage end and
 #: sampled Q in double precision took 138 MB of 143), or "all", every step.
 VTK_STEPS = ("ends", "all")  # fem.vtk.VTK_STEPS
-#: Files every report writes (a foreign one of these names refuses ``force``).
-REPORT_FILES = ("index.html", "report.md", "summary.json")
+#: Files (and, ending in '/', folders) every report writes: a file or link of one of these
+#: names that multicontact did not write refuses ``force`` before anything is computed.
+REPORT_FILES = ("index.html", "report.md", "summary.json", "figures/")
 
 
 @dataclass
@@ -85,7 +86,7 @@ def _write_figs(sec: CaseSection, root: Path) -> None:
     fig_dir = root / "figures"
     fig_dir.mkdir(exist_ok=True)
     for i, data in enumerate(sec.figures.values()):
-        (fig_dir / f"{res.case.name}_{i}.png").write_bytes(data)
+        child(fig_dir, res.case.name, f"_{i}.png").write_bytes(data)
 
 
 def _write_vtk(sec: CaseSection, root: Path, vtk: str = "ends") -> tuple | None:
@@ -94,7 +95,7 @@ def _write_vtk(sec: CaseSection, root: Path, vtk: str = "ends") -> tuple | None:
     import fem
 
     res = sec.result
-    out = root / "vtk" / res.case.name
+    out = child(root / "vtk", res.case.name)
     try:
         pvd = fem.write_vtk(res.fem, out, steps=vtk)
     except Exception as exc:  # noqa: BLE001 - any writer failure is reported, not fatal
@@ -106,7 +107,7 @@ def _write_vtk(sec: CaseSection, root: Path, vtk: str = "ends") -> tuple | None:
     if not vtu.is_file():
         sec.render_note = f"no pyvista picture: {vtu.name} not found in the VTK series"
         return None
-    return vtu, root / "figures" / f"{res.case.name}_bodies.png", region.region_boxes(res)
+    return vtu, child(root / "figures", res.case.name, "_bodies.png"), region.region_boxes(res)
 
 
 def _render(sections: list[CaseSection], jobs: list, root: Path) -> None:
@@ -140,12 +141,15 @@ def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: st
                  ) -> dict:
     """Run ``cases`` and write the report into ``out_dir``; returns the summary dict.
 
-    All cases are loaded (and validated) and ``out_dir`` is checked
-    (:func:`compare.fileio.plan_output`) before anything is computed: bad input raises
-    :class:`compare.errors.CaseError` and nothing is written.  ``convergence_cases`` maps case
-    names to level tuples (default :data:`DEFAULT_CONVERGENCE`; ``{}`` for none).  ``progress``
-    receives a short message after each unit of work.  ``vtk``: one of :data:`VTK_STEPS`;
-    ``force``: write beside files multicontact did not write in ``out_dir`` (they are kept).
+    All cases are loaded (and validated), their names checked (each its own, one file name:
+    they name the figures and VTK folders) and ``out_dir`` is checked
+    (:func:`compare.fileio.plan_output`, with the files and folders the report writes) before
+    anything is computed: bad input raises :class:`compare.errors.CaseError` and nothing is
+    written.  ``convergence_cases`` maps case names to level tuples (default
+    :data:`DEFAULT_CONVERGENCE`; ``{}`` for none).  ``progress`` receives a short message after
+    each unit of work.  ``vtk``: one of :data:`VTK_STEPS`; ``force``: write beside files the
+    report did not write in ``out_dir`` (a user's, another command's output: they are kept,
+    never deleted or overwritten).
     """
     t0 = time.perf_counter()
     if vtk not in VTK_STEPS:
@@ -153,12 +157,29 @@ def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: st
     loaded = [load_case(c) for c in cases]
     conv = DEFAULT_CONVERGENCE if convergence_cases is None else convergence_cases
     conv_cases = {name: (load_case(name), levels) for name, levels in conv.items()}
-    plan = plan_output(out_dir, "report", force, expected=REPORT_FILES)
+    _check_names(loaded, [c for c, _ in conv_cases.values()])
+    plan = plan_output(out_dir, "report", force, expected=_expected(loaded, fig5))
     with owned_output(out_dir, "report", force, plan) as tmp:
         summary = _build(loaded, conv_cases, fig5, tmp, progress or (lambda msg: None), t0,
                          vtk=vtk)
     summary["index"] = str(plan.out / "index.html")
     return summary
+
+
+def _check_names(cases: list[Case], studied: list[Case]) -> None:
+    """CaseError unless every case and every studied case has its own name, one file name
+    (:func:`compare.fileio.child`): the names name the figures and VTK folders."""
+    check_unique_names(cases, "report sections, figures and VTK series")
+    check_unique_names(studied, "convergence figures")
+    for case in cases + studied:
+        child(Path("."), case.name)
+
+
+def _expected(cases: list[Case], fig5: bool) -> tuple[str, ...]:
+    """Files and folders (ending in '/') the report will write, checked against the files
+    already in its folder before anything is computed."""
+    names = [*REPORT_FILES, "vtk/", *(f"vtk/{c.name}/" for c in cases)]
+    return tuple(names + (["study_fig5.html", "figures/fig5.png"] if fig5 else []))
 
 
 #: Worker processes of a report (each case, the convergence studies and the Fig. 5 study are
@@ -183,7 +204,7 @@ def _case_unit(case: Case, root: Path, vtk: str = "ends") -> tuple[CaseSection, 
 def _convergence_unit(case: Case, levels: tuple, root: Path) -> tuple[ConvergenceStudy, bytes]:
     st = convergence(case, levels=levels)
     fig = figures.convergence_figure(st)
-    (root / "figures" / f"{case.name}_convergence.png").write_bytes(fig)
+    child(root / "figures", case.name, "_convergence.png").write_bytes(fig)
     return st, fig
 
 
@@ -256,7 +277,7 @@ def _build(cases: list[Case], conv_cases: dict, want_fig5: bool, root: Path, pro
         progress(f"case {case.name}: {'agrees' if sec.result.passed else 'FAILS'}")
     studies, conv_figs = [], {}
     for name in conv_cases:
-        st, conv_figs[name] = next(results)
+        st, conv_figs[st.case_name] = next(results)  # keyed as _write_documents looks it up
         studies.append(st)
         progress(f"convergence {name}: pressure order {st.orders['pressure_l2_error']:.2f}, "
                  f"{st.verdict()}")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import signal
 import threading
 import time
@@ -150,6 +151,23 @@ def run_local(tasks: list[dict], workers: int, stop: StopFlag) -> Iterator[dict]
                     queue.appendleft(t)
         finally:
             kill_pool(pool)
+
+
+#: The forms of a scheduler address (``--scheduler``), as said in error messages.
+SCHEDULER_FORMS = "'local' (a dask LocalCluster here) or tcp://HOST:PORT (an existing scheduler)"
+_TCP_ADDRESS = re.compile(r"tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):([0-9]{1,5})")
+
+
+def check_scheduler(scheduler: str | None) -> str | None:
+    """``scheduler`` if it is None, 'local' or tcp://HOST:PORT (port 1-65535), else a
+    SweepError naming it and the allowed forms (checked before anything is written)."""
+    if scheduler is None or scheduler == "local":
+        return scheduler
+    m = _TCP_ADDRESS.fullmatch(scheduler) if isinstance(scheduler, str) else None
+    if m is None or not 1 <= int(m[2]) <= 65535:
+        raise SweepError(f"scheduler {scheduler!r} is not allowed: give {SCHEDULER_FORMS}, "
+                         "e.g. tcp://127.0.0.1:8786")
+    return scheduler
 
 
 def _dask():

@@ -16,7 +16,14 @@ from pathlib import Path
 
 from compare.errors import CaseError, SweepError
 from compare.fileio import check_store
-from compare.sweep.runner import SweepOutcome, pending_cases, run_sweep
+from compare.sweep.backends import check_scheduler
+from compare.sweep.runner import (
+    SweepOutcome,
+    check_store_owner,
+    check_workers,
+    pending_cases,
+    run_sweep,
+)
 from compare.sweep.spec import Sweep, list_studies, load_sweep
 from compare.sweep.store import MANIFEST_FILE, RESULTS_FILE, read_records
 
@@ -34,9 +41,11 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
                               description=DESCRIPTION)
     p.add_argument("study", help="sweep file (.toml) or library study name "
                    f"({', '.join(list_studies())})")
-    p.add_argument("-o", "--output", required=True, help="result directory (resumable)")
+    p.add_argument("-o", "--output", required=True,
+                   help="result directory: new, or this sweep's own (resumable)")
     p.add_argument("--workers", type=int, default=None,
-                   help="worker processes (default: available cores)")
+                   help="worker processes of the local pool or of --scheduler local (default: "
+                        "available cores)")
     p.add_argument("--scheduler", default=None,
                    help="dask scheduler address tcp://host:port, or 'local' for a dask "
                         "LocalCluster (default: local process pool, no dask needed)")
@@ -58,7 +67,9 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
 def _hook_report(report: argparse.ArgumentParser) -> None:
     """``report --sweep DIR``: route to the sweep report, else to the case report."""
     report.add_argument("--sweep", metavar="DIR", default=None,
-                        help="write the report of a sweep directory into DIR/report")
+                        help="write the report of a sweep directory into DIR/report (or -o); "
+                             "exit 1 if a case of the sweep failed; takes -o, --force and "
+                             "--json only")
     original = report.get_default("func") or report.get_default("handler")
 
     def route(args) -> int:
@@ -69,16 +80,42 @@ def _hook_report(report: argparse.ArgumentParser) -> None:
     report.set_defaults(func=route, handler=route)
 
 
+#: Options of the case report (``multicontact report``) that a sweep report does not take:
+#: argparse dest -> (the option as the user wrote it, its value when not given).
+CASE_REPORT_ONLY = {"cases": ("CASE arguments", []), "convergence": ("--convergence", None),
+                    "levels": ("--levels", None), "no_fig5": ("--no-fig5", False),
+                    "vtk": ("--vtk", None)}
+
+
+def _case_report_options(args) -> list[str]:
+    """The case-report options given with ``report --sweep`` (they would be ignored)."""
+    return [opt for dest, (opt, unset) in CASE_REPORT_ONLY.items()
+            if getattr(args, dest, unset) != unset]
+
+
 def cmd_sweep_report(args) -> int:
+    """``report --sweep DIR [-o OUT] [--force] [--json]``: exit 0 every case ok (or not run),
+    1 a case of the sweep failed, 2 bad input."""
     from compare.sweep.report import write_sweep_report
 
     try:
-        out = write_sweep_report(args.sweep, force=getattr(args, "force", False))
+        given = _case_report_options(args)
+        if given:
+            raise SweepError(f"{', '.join(given)}: not for a sweep report (report --sweep DIR "
+                             "takes -o, --force and --json); leave them out, or run the case "
+                             "report without --sweep")
+        out = write_sweep_report(args.sweep, getattr(args, "out", None),
+                                 force=getattr(args, "force", False))
     except (SweepError, CaseError) as exc:
         print(f"multicontact report: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    print(f"sweep report: {out / 'index.html'} and {out / 'report.md'}")
-    return EXIT_OK
+    summ = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    if getattr(args, "json", False):
+        print(json.dumps(summ | {"index": str(out / "index.html")}))
+    else:
+        print(f"sweep report: {out / 'index.html'} and {out / 'report.md'} ({summ['ok']} ok, "
+              f"{summ['failed']} failed, {summ['pending']} not run)")
+    return EXIT_FAILED_CASES if summ["failed"] else EXIT_OK
 
 
 def _dry_run(sweep: Sweep, args) -> int:
@@ -98,6 +135,8 @@ def cmd_sweep(args) -> int:
     interrupted)."""
     try:
         sweep = load_sweep(args.study)
+        _check_options(args)
+        check_store_owner(sweep, args.output)  # first: --force cannot help there
         check_store(args.output, MANIFEST_FILE, args.force)
         if args.dry_run:
             return _dry_run(sweep, args)
@@ -111,6 +150,16 @@ def cmd_sweep(args) -> int:
     if res.signal is not None:
         return EXIT_SIGNAL.get(res.signal, 130)
     return EXIT_FAILED_CASES if res.failed or _failed_in_store(sweep, args) else EXIT_OK
+
+
+def _check_options(args) -> None:
+    """--workers and --scheduler, checked before anything is written (also for --dry-run)."""
+    check_workers(args.workers)
+    check_scheduler(args.scheduler)
+    if args.workers is not None and args.scheduler not in (None, "local"):
+        raise SweepError(f"--workers {args.workers} does not apply to --scheduler "
+                         f"{args.scheduler}: the workers are that cluster's; --workers sizes "
+                         "the local pool or --scheduler local")
 
 
 def _failed_in_store(sweep: Sweep, args) -> bool:
@@ -136,10 +185,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="multicontact")
     sub = parser.add_subparsers(dest="command", required=True)
     add_sweep_parser(sub)
-    rep = sub.add_parser("report", help="report of a sweep directory")
+    rep = sub.add_parser("report", help="report of a sweep directory (exit 1 if a case failed)")
     rep.add_argument("--sweep", metavar="DIR", required=True)
+    rep.add_argument("-o", "--out", help="output directory (default DIR/report)")
     rep.add_argument("--force", action="store_true",
-                     help="write DIR/report beside files multicontact did not write there")
+                     help="write the report folder beside files multicontact did not write there")
+    rep.add_argument("--json", action="store_true", help="print the summary as JSON")
     rep.set_defaults(func=cmd_sweep_report)
-    args = parser.parse_args(argv)
-    return args.func(args)
+    from compare.exits import run_command  # the exits of every command (signals, closed stdout)
+
+    return run_command(lambda: parser.parse_args(argv))

@@ -1,9 +1,11 @@
 """Sweep runner: ``run_sweep`` runs the unfinished cases of a sweep into a result directory.
 
-It takes the directory's lock, rewrites the manifest, skips the cases already finished
-(resume), hands the rest to an execution backend (local process pool or dask), appends every
-record as it arrives, shows progress and, on SIGINT / SIGTERM, stops after keeping every
-finished record.  It knows nothing of reports (``compare.sweep.report``).
+It checks its input and that the directory is the sweep's own (or new) before anything is
+written, connects to dask if asked, takes the directory's lock, rewrites the manifest, skips
+the cases already finished (resume), hands the rest to an execution backend (local process
+pool or dask), appends every record as it arrives, shows progress and, on SIGINT / SIGTERM,
+stops after keeping every finished record.  It knows nothing of reports
+(``compare.sweep.report``).
 """
 
 from __future__ import annotations
@@ -19,9 +21,15 @@ from pathlib import Path
 
 from compare.errors import SweepError
 from compare.fileio import write_atomic
-from compare.sweep.backends import StopFlag, dask_client, run_dask, run_local
+from compare.sweep.backends import StopFlag, check_scheduler, dask_client, run_dask, run_local
 from compare.sweep.spec import Sweep, SweepCase, load_sweep
-from compare.sweep.store import MANIFEST_FILE, ResultStore, read_records
+from compare.sweep.store import (
+    MANIFEST_FILE,
+    RESULTS_FILE,
+    ResultStore,
+    read_records,
+    store_manifest,
+)
 from compare.sweep.tasks import jsonable
 
 
@@ -89,19 +97,24 @@ def run_sweep(sweep: Sweep | str | Path, directory: str | Path, *, workers: int 
 
     ``scheduler``: None = local process pool with ``workers`` processes; ``"local"`` = a dask
     LocalCluster with ``workers`` processes; ``"tcp://host:port"`` = an existing dask
-    scheduler.  SIGINT / SIGTERM stop the run after keeping every finished record.
+    scheduler.  Bad input (workers, scheduler, parts, a folder that is not this sweep's:
+    :func:`check_store_owner`) and an unreachable scheduler are refused (SweepError) before
+    anything is written.  SIGINT / SIGTERM stop the run after keeping every finished record.
     """
     sweep = sweep if isinstance(sweep, Sweep) else load_sweep(sweep)
-    workers = default_workers() if workers is None else workers
-    if workers < 1:
-        raise SweepError(f"workers={workers!r} is not allowed: need >= 1")
+    workers = check_workers(workers)
+    check_scheduler(scheduler)
+    check_store_owner(sweep, directory)
+    todo, _ = pending_cases(sweep, directory, parts, retry_failed)
     run_id, t0 = uuid.uuid4().hex[:12], time.perf_counter()
-    with ResultStore(directory) as store, StopFlag() as stop:
-        write_atomic(store.dir / MANIFEST_FILE, json.dumps(jsonable(sweep.manifest()), indent=1))
+    # records are only ever added, so the cases left under the lock are a subset of ``todo``:
+    # no cases left now, no backend needed then
+    with StopFlag() as stop, _backend(scheduler, workers, bool(todo)) as client, \
+            ResultStore(directory, prepare=lambda d: _claim(sweep, d)) as store:
         todo, skipped = pending_cases(sweep, directory, parts, retry_failed)
         counts = Counter()
         prog, tid = _progress(progress, len(todo) + skipped, skipped)
-        with prog, _runner(todo, sweep, workers, scheduler, stop) as records:
+        with prog, _runner(todo, sweep, workers, client, stop) as records:
             for rec in records:
                 rec["run"] = run_id
                 store.append(rec)
@@ -113,17 +126,74 @@ def run_sweep(sweep: Sweep | str | Path, directory: str | Path, *, workers: int 
                         time.perf_counter() - t0, run_id)
 
 
+def check_workers(workers: int | None) -> int:
+    """The number of worker processes (None: the available cores); SweepError below 1."""
+    if workers is None:
+        return default_workers()
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise SweepError(f"workers={workers!r} is not allowed: need >= 1")
+    return workers
+
+
+def check_store_owner(sweep: Sweep, directory: str | Path) -> None:
+    """Refuse (SweepError) a folder that is not ``sweep``'s store: a sweep.json that is not a
+    sweep manifest, a results.jsonl without one, the store of a sweep of another name, or of a
+    version of this sweep with finished cases that ``sweep`` no longer has (their records would
+    drop out of the manifest and the report).  A new or empty folder, and this sweep's own
+    store (resume; values added to an axis), pass."""
+    directory = Path(directory)
+    man = store_manifest(directory)
+    if man is None:
+        if (directory / RESULTS_FILE).exists():
+            raise SweepError(f"{directory / RESULTS_FILE} has no {MANIFEST_FILE} beside it: "
+                             f"{directory} is not a sweep's folder; nothing was written: give "
+                             "the sweep a folder of its own")
+        return
+    if man["name"] != sweep.name:
+        raise SweepError(f"{directory} holds sweep '{man['name']}' ({MANIFEST_FILE}), not "
+                         f"'{sweep.name}'; nothing was written: a folder holds one sweep, give "
+                         f"'{sweep.name}' a folder of its own")
+    dropped = _dropped_cases(man, sweep, read_records(directory))
+    if dropped:
+        c = dropped[0]
+        raise SweepError(f"{directory} holds {len(dropped)} finished case(s) of sweep "
+                         f"'{sweep.name}' that this version of it does not have (e.g. part "
+                         f"'{c.get('part')}' #{c.get('index')} {c.get('params')}); nothing "
+                         "was written: run the changed sweep into a new folder (values added "
+                         "to an axis are fine: the finished cases are kept)")
+
+
+def _dropped_cases(manifest: dict, sweep: Sweep, records: dict) -> list[dict]:
+    """Cases of the store's manifest that have a record but are not cases of ``sweep``."""
+    keys = {c.key for c in sweep.cases}
+    return [c for c in manifest["cases"] if c["key"] in records and c["key"] not in keys]
+
+
+def _claim(sweep: Sweep, directory: Path) -> None:
+    """Under the store's lock: check the folder again and write this sweep's manifest."""
+    check_store_owner(sweep, directory)
+    write_atomic(directory / MANIFEST_FILE, json.dumps(jsonable(sweep.manifest()), indent=1))
+
+
 @contextlib.contextmanager
-def _runner(todo: list[SweepCase], sweep: Sweep, workers: int, scheduler: str | None,
-            stop: StopFlag):
+def _backend(scheduler: str | None, workers: int, needed: bool):
+    """The dask client of ``scheduler`` (connected before the store is touched, so an
+    unreachable scheduler writes nothing), or None for the local pool or nothing to run."""
+    if scheduler is None or not needed:
+        yield None
+        return
+    with dask_client(scheduler, workers) as client:
+        yield client
+
+
+@contextlib.contextmanager
+def _runner(todo: list[SweepCase], sweep: Sweep, workers: int, client, stop: StopFlag):
     tasks = [c.as_task(sweep) for c in todo]
     if not tasks:
         yield iter(())
         return
-    with contextlib.ExitStack() as stack:
-        if scheduler is None:
-            gen = run_local(tasks, workers, stop)
-        else:
-            gen = run_dask(tasks, stack.enter_context(dask_client(scheduler, workers)), stop)
-        stack.callback(gen.close)
+    gen = run_local(tasks, workers, stop) if client is None else run_dask(tasks, client, stop)
+    try:
         yield gen
+    finally:
+        gen.close()

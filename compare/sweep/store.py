@@ -12,6 +12,7 @@ from __future__ import annotations
 import fcntl
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 from compare.errors import SweepError
@@ -19,6 +20,12 @@ from compare.errors import SweepError
 RESULTS_FILE = "results.jsonl"
 MANIFEST_FILE = "sweep.json"
 LOCK_FILE = ".lock"
+#: ``format`` field of every manifest: a folder is a sweep's store only when its sweep.json
+#: carries it (or is a manifest of an earlier version, without it: :data:`LEGACY_FIELDS`).
+MANIFEST_FORMAT = "multicontact sweep"
+#: Fields of a manifest written before the ``format`` field existed (schema 1).
+LEGACY_FIELDS = frozenset({"schema", "name", "description", "source", "base", "parts",
+                           "report", "cases", "written"})
 
 
 def _better(old: dict | None, new: dict) -> bool:
@@ -43,21 +50,58 @@ def read_records(directory: str | Path) -> dict[str, dict]:
     return out
 
 
+def is_manifest(doc: object) -> bool:
+    """Whether ``doc`` (parsed sweep.json) is a multicontact sweep manifest: the format marker
+    (or every field of a schema-1 manifest written before it), a name and a list of cases
+    with keys."""
+    if not isinstance(doc, dict):
+        return False
+    marked = doc.get("format") == MANIFEST_FORMAT or (LEGACY_FIELDS <= set(doc)
+                                                      and "format" not in doc)
+    cases = doc.get("cases")
+    return (marked and doc.get("schema") == 1 and isinstance(doc.get("name"), str)
+            and isinstance(cases, list)
+            and all(isinstance(c, dict) and isinstance(c.get("key"), str) for c in cases))
+
+
+def store_manifest(directory: str | Path) -> dict | None:
+    """The manifest of the sweep store ``directory``, or None when it has no sweep.json;
+    SweepError when its sweep.json is not a multicontact sweep manifest (someone else's)."""
+    path = Path(directory) / MANIFEST_FILE
+    if not path.exists():
+        return None
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        doc = None
+    if not is_manifest(doc):
+        raise SweepError(f"{path} is not a multicontact sweep manifest (it has no \"format\": "
+                         f"\"{MANIFEST_FORMAT}\"), so {directory} is not a sweep's folder; "
+                         "nothing was written: give the sweep a folder of its own")
+    return doc
+
+
 def read_manifest(directory: str | Path) -> dict:
     """``DIR/sweep.json`` (SweepError naming the directory when it is not a sweep's)."""
-    path = Path(directory) / MANIFEST_FILE
-    if not path.is_file():
+    doc = store_manifest(directory)
+    if doc is None:
         raise SweepError(f"{directory} is not a sweep directory: no {MANIFEST_FILE} "
                          "(run `multicontact sweep STUDY -o DIR` first)")
-    return json.loads(path.read_text(encoding="utf-8"))
+    return doc
 
 
 class ResultStore:
-    """Append-only JSON Lines store with an exclusive lock (one coordinator per directory)."""
+    """Append-only JSON Lines store with an exclusive lock (one coordinator per directory).
 
-    def __init__(self, directory: str | Path):
+    ``prepare(directory)``, if given, runs once the lock is held and before results.jsonl is
+    touched (the runner checks the folder is this sweep's and writes the manifest there); an
+    exception from it releases the lock and leaves results.jsonl as it was."""
+
+    def __init__(self, directory: str | Path,
+                 prepare: Callable[[Path], None] | None = None):
         self.dir = Path(directory)
         self.path = self.dir / RESULTS_FILE
+        self._prepare = prepare
         self._fd: int | None = None
         self._lock: int | None = None
 
@@ -69,8 +113,14 @@ class ResultStore:
         except BlockingIOError:
             os.close(self._lock)
             raise SweepError(f"{self.dir} is in use by another running sweep") from None
-        self._repair_tail()
-        self._fd = os.open(self.path, os.O_CREAT | os.O_WRONLY | os.O_APPEND, 0o644)
+        try:
+            if self._prepare is not None:
+                self._prepare(self.dir)
+            self._repair_tail()
+            self._fd = os.open(self.path, os.O_CREAT | os.O_WRONLY | os.O_APPEND, 0o644)
+        except BaseException:
+            self.__exit__()
+            raise
         return self
 
     def __exit__(self, *exc) -> None:

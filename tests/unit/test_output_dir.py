@@ -79,14 +79,34 @@ def test_own_output_replaced_without_force_and_emptied_folders_removed(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
 
 
-def test_other_commands_output_needs_force(tmp_path):
+def test_other_commands_output_needs_force_and_is_kept(tmp_path):
+    """--force writes beside another command's output and never deletes or overwrites it
+    (it deleted it: `run --vtk FX --force` into `fem -o` output left only the run's files)."""
+    out = tmp_path / "rep"
+    write(out, {"history.pvd": "fem", "bodies_0001.vtu": "fem"}, command="fem")
+    with pytest.raises(CaseError, match=r"output of `multicontact fem`.*--force to write beside "
+                       r"it \(its files are kept"):
+        write(out, {"cat0/history.pvd": "run"}, command="run")
+    assert tree(out) == {"history.pvd": "fem", "bodies_0001.vtu": "fem"}
+    write(out, {"cat0/history.pvd": "run"}, command="run", force=True)
+    assert tree(out) == {"history.pvd": "fem", "bodies_0001.vtu": "fem",
+                         "cat0/history.pvd": "run"}
+    assert json.loads((out / OWNED_FILE).read_text())["files"] == ["cat0/history.pvd"]
+    write(out, {"cat0/history.pvd": "run 2"}, command="run", force=True)  # its own: replaced
+    assert tree(out) == {"history.pvd": "fem", "bodies_0001.vtu": "fem",
+                         "cat0/history.pvd": "run 2"}
+
+
+def test_force_never_overwrites_another_commands_file(tmp_path):
     out = tmp_path / "rep"
     write(out, {"index.html": "report"})
-    with pytest.raises(CaseError, match="output of `multicontact report`"):
-        write(out, {"index.html": "verify"}, command="verify")
+    with pytest.raises(CaseError, match=r"would overwrite .*\(index.html"):
+        plan_output(out, "verify", True, expected=("index.html",))
+    with pytest.raises(CaseError, match=r"would overwrite .*\(index.html"):
+        write(out, {"index.html": "verify"}, command="verify", force=True)
     assert tree(out) == {"index.html": "report"}
-    write(out, {"index.html": "verify"}, command="verify", force=True)
-    assert tree(out) == {"index.html": "verify"}
+    assert json.loads((out / OWNED_FILE).read_text())["command"] == "report"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
 
 
 def test_force_never_overwrites_a_foreign_file(tmp_path):
@@ -200,3 +220,130 @@ def test_store_probed_inside_an_existing_folder(tmp_path, monkeypatch):
     plan_output(tmp_path / "rep", "report")
     assert seen == [out.resolve(), tmp_path.resolve()]
     assert sorted(p.name for p in out.iterdir()) == []
+
+
+@pytest.mark.parametrize("expected", [("figures/",), ("figures/a.png",)])
+def test_file_where_a_folder_goes_refused_before_computing(tmp_path, expected):
+    """A user's FILE named like a folder the command writes (`figures` in a report folder) is
+    refused by the plan, with its name; it gave a FileExistsError after the computation."""
+    out = tmp_path / "rep"
+    out.mkdir()
+    (out / "figures").write_text("mine")
+    with pytest.raises(CaseError, match=r"would overwrite .*\(figures: names of files or "
+                       r"folders it writes\); they are kept and nothing was written"):
+        plan_output(out, "report", True, expected=("index.html", *expected))
+    with pytest.raises(CaseError, match=r"\(figures: .*nothing was replaced"):  # unannounced
+        write(out, {"index.html": "new", "figures/a.png": "new"}, force=True)
+    assert tree(out) == {"figures": "mine"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+
+
+def test_link_where_a_folder_goes_is_not_written_through(tmp_path):
+    """A link in the folder where the command writes a folder is refused: its files would land
+    wherever the link points."""
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "history.pvd").write_text("theirs")
+    out = tmp_path / "rep"
+    out.mkdir()
+    (out / "vtk").symlink_to(elsewhere, target_is_directory=True)
+    with pytest.raises(CaseError, match=r"\(vtk: "):
+        plan_output(out, "report", True, expected=("vtk/",))
+    with pytest.raises(CaseError, match=r"\(vtk: "):
+        write(out, {"vtk/history.pvd": "new"}, force=True)
+    assert [p.name for p in elsewhere.iterdir()] == ["history.pvd"]
+    assert (elsewhere / "history.pvd").read_text() == "theirs"
+
+
+def test_foreign_file_beside_own_folder_is_fine_with_force(tmp_path):
+    """A user's file inside a folder the command writes is kept: the command writes beside it."""
+    out = tmp_path / "rep"
+    (out / "figures").mkdir(parents=True)
+    (out / "figures" / "notes.txt").write_text("mine")
+    plan_output(out, "report", True, expected=("figures/",))
+    write(out, {"figures/a.png": "new"}, force=True)
+    write(out, {"index.html": "newer"}, force=True)
+    assert tree(out) == {"figures/notes.txt": "mine", "index.html": "newer"}
+
+
+def test_unwritable_own_output_refused_before_computing(tmp_path, monkeypatch):
+    """Rerunning into one's own earlier output that cannot be written (chmod 555, chattr +i)
+    is refused by the plan ("cannot write in" the folder), not by a PermissionError traceback
+    after the computation: the folder itself and the folders of its previous output are
+    probed."""
+    out = tmp_path / "rep"
+    write(out, {"index.html": "old", "figures/a.png": "old"})
+    real = fileio.tempfile.mkdtemp
+    for locked in (out, out / "figures"):
+        def refuse(locked=locked, **kw):
+            if Path(kw["dir"]) == locked.resolve():
+                raise PermissionError(1, "Operation not permitted")
+            return real(**kw)
+
+        monkeypatch.setattr(fileio.tempfile, "mkdtemp", refuse)
+        with pytest.raises(CaseError, match=rf"cannot write in {locked.resolve()} \(Operation "
+                           r"not permitted\); nothing was computed"):
+            plan_output(out, "report")
+    monkeypatch.undo()
+    assert tree(out) == {"index.html": "old", "figures/a.png": "old"}
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes in a 0555 folder")
+def test_read_only_own_output_refused_before_computing(tmp_path):
+    out = tmp_path / "rep"
+    write(out, {"index.html": "old"})
+    out.chmod(0o555)
+    try:
+        with pytest.raises(CaseError, match="cannot write in .*rep"):
+            plan_output(out, "report")
+    finally:
+        out.chmod(0o755)
+
+
+def test_a_failing_swap_is_one_clear_error_and_rolled_back(tmp_path, monkeypatch):
+    """An OS error while the files are swapped in (a folder made read-only meanwhile) is a
+    CaseError (exit 2), and the previous output stays."""
+    out = tmp_path / "rep"
+    write(out, {"index.html": "old"})
+    real = os.replace
+
+    def refuse(src, dst):  # the new file cannot go in (putting the old one back can)
+        if ".rep.tmp-" in str(src) and Path(dst) == out.resolve() / "index.html":
+            raise PermissionError(13, "Permission denied", str(dst))
+        real(src, dst)
+
+    monkeypatch.setattr(fileio.os, "replace", refuse)
+    with pytest.raises(CaseError, match=r"cannot write in it \(Permission denied: .*index.html\);"
+                       " nothing was replaced"):
+        write(out, {"index.html": "new"})
+    monkeypatch.undo()
+    assert tree(out) == {"index.html": "old"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+
+
+@pytest.mark.parametrize(("a", "b"), [("x/vtk", "x"), ("x", "x/vtk"), ("x", "x"),
+                                      ("x/./vtk/..", "x")])
+def test_nested_output_folders_refused(tmp_path, a, b):
+    """`fem -o X/vtk --export X` wrote X/vtk, then refused X for holding it: two outputs of one
+    command must be separate folders, checked before anything is computed."""
+    with pytest.raises(CaseError, match=r"-o .* and --export .*: give two separate folders, "
+                       "neither inside the other"):
+        fileio.check_apart({"-o": tmp_path / a, "--export": tmp_path / b})
+
+
+def test_separate_output_folders_pass(tmp_path):
+    fileio.check_apart({"-o": tmp_path / "x", "--export": tmp_path / "xy", "--vtk": None})
+    fileio.check_apart({"-o": tmp_path / "a" / "x", "--export": tmp_path / "a" / "y"})
+
+
+@pytest.mark.parametrize("name", ["../escaped", "/tmp/victim", "a/b", "a\\b", "", ".", "..",
+                                  ".hidden", "x\0y"])
+def test_case_name_never_leaves_the_output_folder(tmp_path, name):
+    with pytest.raises(CaseError, match="cannot name a file in the output folder"):
+        fileio.child(tmp_path, name, "_0.png")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_case_name_child(tmp_path):
+    assert fileio.child(tmp_path, "cat0") == tmp_path / "cat0"
+    assert fileio.child(tmp_path, "cat0", "_bodies.png") == tmp_path / "cat0_bodies.png"
