@@ -195,8 +195,10 @@ def tabulated(x: Sequence[float], h: Sequence[float], kinks: Sequence[float] = (
                      "a strictly increasing 1-D sequence of at least 4 finite numbers")
     h = check.vector("h", h, 4, lambda v: v.size == x.size and bool(np.all(v >= 0)),
                      f"{x.size} finite values h0 >= 0 (one per x)")
-    kinks = check.vector("kinks", kinks, 0, need="a 1-D sequence of finite numbers")
-    ks = sorted(float(k) for k in kinks if x[0] < k < x[-1])
+    kinks = check.vector("kinks", kinks, 0, lambda v: bool(np.all((v >= x[0]) & (v <= x[-1]))),
+                         f"a 1-D sequence of finite numbers within the table "
+                         f"[{float(x[0])!r}, {float(x[-1])!r}]")
+    ks = sorted(float(k) for k in kinks if x[0] < k < x[-1])  # a kink at an end is an end
     cuts = [x[0], *ks, x[-1]]
     pieces = []
     for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):

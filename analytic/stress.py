@@ -229,8 +229,8 @@ def ruiz(state: StickSolution, x: np.ndarray | float | None = None, n: int = 200
 
     Evaluated with ``sxx`` (:func:`surface_stress`) and ``q`` of ``state`` and the slip
     accumulated in stage 3 (for ``Q = -Q0`` the slip range of a steady cycle).  ``x`` (1-D)
-    defaults to ``n`` points across the contact span plus all stick edges (``n``: an integer
-    >= 2).
+    defaults to ``n`` evenly spaced points from the first zone's left edge to the last zone's
+    right edge (``n``: an integer >= 2).
     """
     if not isinstance(state, StickSolution) or state.stage != 3:
         raise InputError("ruiz needs a stage-3 analytic.StickSolution (solve_stick(normal, mu, "

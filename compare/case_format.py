@@ -297,7 +297,9 @@ def _fem(doc: dict, src: str, base: Path | None) -> FemSettings:
         mf = Path(vals["mesh_file"])
         mf = mf if mf.is_absolute() or base is None else base / mf
         if not mf.is_file():
-            raise CaseError(f"fem.mesh_file={vals['mesh_file']!r}: no such file ({mf}) ({src})")
+            what = "not a regular file (a folder?)" if mf.exists() else "no such file"
+            raise CaseError(f"fem.mesh_file={vals['mesh_file']!r}: {what} ({mf}) ({src}); "
+                            "allowed: a mesh file meshio reads (docs/cases.md)")
         vals["mesh_file"] = str(mf)
     return FemSettings(**vals)
 

@@ -338,7 +338,9 @@ def load_case(name_or_path: str | Path | Case) -> Case:
     path = Path(text)
     if path.suffix == ".toml" or path.exists():
         if not path.is_file():
-            raise CaseError(f"case file {text!r} does not exist")
+            what = "is not a regular file (a folder?)" if path.exists() else "does not exist"
+            raise CaseError(f"case file {text!r} {what}; allowed: a library case "
+                            f"({', '.join(list_cases())}) or a .toml case file")
         return read_case(path)
     raise CaseError(f"unknown case {text!r}: not a library case ({', '.join(list_cases())}) "
                     "and not a .toml file")

@@ -172,6 +172,13 @@ def resolve_mesh(mesh, window, kinks) -> tuple[TwoBodyMesh, int, str]:
     return build_mesh(mesh, window, kinks), mesh.order, mesh.boundary
 
 
+def mesh_path(mesh) -> Path | None:
+    """The file of a mesh read from one (a path or MeshFile), None for a generated mesh."""
+    if isinstance(mesh, (str, Path)):
+        return Path(mesh)
+    return mesh.path if isinstance(mesh, MeshFile) else None
+
+
 def resolve_contact(contact: ContactSettings | None, E: float, h: float) -> ContactSettings:
     """Fill the default penalty stiffness and penetration tolerance."""
     c = contact or ContactSettings()
@@ -371,14 +378,18 @@ def run_increments(prob: InterfaceProblem, schedule, contact: ContactSettings, M
     return states
 
 
-def check_zone_size(prob: InterfaceProblem, state: ContactState, h: float) -> None:
-    """Raise InputError if a contact zone at full load holds fewer than MIN_ZONE_NODES nodes."""
+def check_zone_size(prob: InterfaceProblem, state: ContactState, h: float,
+                    mesh_file: Path | None = None) -> None:
+    """Raise InputError if a contact zone at full load holds fewer than MIN_ZONE_NODES nodes
+    (``mesh_file``: the mesh read, named in the advice; None: a generated mesh)."""
+    remedy = (f"refine the mesh file {mesh_file} at the interface near the contact"
+              if mesh_file is not None else "raise MeshSpec.level or narrow the window")
     for i0, i1 in runs(state.status > 0):
         if i1 - i0 + 1 < MIN_ZONE_NODES:
             raise InputError(
                 f"mesh too coarse: the contact zone near x=[{prob.x[i0]:g}, {prob.x[i1]:g}] "
                 f"holds {i1 - i0 + 1} nodes at P0, need >= {MIN_ZONE_NODES} (element size "
-                f"{h:g}): raise MeshSpec.level or narrow the window"
+                f"{h:g}): {remedy}"
             )
 
 
@@ -408,14 +419,15 @@ def assemble_bodies(
 
 
 def solve_increments(
-    prob: InterfaceProblem, schedule, contact: ContactSettings, M, h: float, timings: dict
+    prob: InterfaceProblem, schedule, contact: ContactSettings, M, h: float, timings: dict,
+    mesh_file: Path | None = None,
 ) -> list:
     """Converged states of all scheduled increments (timed as 'increments'); the contact
     zones at the end of stage 1 must be resolved (:func:`check_zone_size`)."""
     with timed(timings, "increments"):
         states = run_increments(prob, schedule, contact, M)
     stage1_end = max(i for i, s in enumerate(schedule) if s[0] == 1)
-    check_zone_size(prob, states[stage1_end], h)
+    check_zone_size(prob, states[stage1_end], h, mesh_file)
     return states
 
 
@@ -489,7 +501,8 @@ def solve_history(
         model = build_model(disc, bulk, h0, mu, window, settings, M is None, backend, timings)
         del bulk
         return_freed_memory()  # the factorisation's temporaries
-        states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings)
+        states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings,
+                                  mesh_path(mesh))
         model = without_compliance(model)
         return_freed_memory()  # the compliance and the contact solver's matrices
         with timed(timings, "recovery"):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from compare.cases import case_from_dict, list_cases, load_case, read_case
+from compare.cases import case_from_dict, library_dir, list_cases, load_case, read_case
 from compare.errors import CaseError
 
 
@@ -95,3 +95,14 @@ def test_library_complete_and_valid():
 def test_unknown_case_name():
     with pytest.raises(CaseError, match="unknown case 'nope'"):
         load_case("nope")
+
+
+def test_a_folder_is_not_a_case_file_nor_a_mesh_file(tmp_path):
+    (tmp_path / "c.toml").mkdir()
+    with pytest.raises(CaseError, match=r"case file .*c.toml' is not a regular file \(a folder"):
+        load_case(tmp_path / "c.toml")
+    f = tmp_path / "m.toml"
+    f.write_text((library_dir() / "hertz.toml").read_text()
+                 + f'\n[fem]\nmesh_file = "{tmp_path}"\n')
+    with pytest.raises(CaseError, match=r"fem.mesh_file=.*: not a regular file \(a folder\?\)"):
+        read_case(f)

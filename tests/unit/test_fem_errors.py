@@ -49,6 +49,16 @@ def test_mesh_too_coarse_for_contact_zone():
         run(window=(-40.0, 40.0), mesh=fem.MeshSpec(level=-2, W=200.0))
 
 
+def test_mesh_file_too_coarse_names_the_file():
+    """A mesh file is refined in the file, not by MeshSpec.level: the advice says so."""
+    from pathlib import Path
+
+    path = Path(__file__).parents[2] / "meshes" / "hertz_L0.msh"
+    with pytest.raises(fem.InputError, match=r"mesh too coarse.*: refine the mesh file "
+                                             r".*hertz_L0.msh at the interface"):
+        run(P0=1e-4, Q0=0.0, mesh=path, window=None)
+
+
 def test_window_too_small_is_detected():
     with pytest.raises(fem.InputError, match="window too small"):
         run(window=(-0.4, 0.4), mesh=fem.MeshSpec(level=0, W=30.0))

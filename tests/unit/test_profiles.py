@@ -213,3 +213,12 @@ def test_with_lift_and_local_minima_under_rotation() -> None:
 def test_bad_profile_parameters_raise_one_clear_input_error(build, named: str) -> None:
     with pytest.raises(InputError, match=named.replace("(", r"\(")):
         build()
+
+
+def test_tabulated_kinks_outside_the_table_are_refused():
+    """A kink outside the table was dropped silently; one at an end is the end."""
+    x = np.linspace(-1.0, 1.0, 21)
+    with pytest.raises(InputError, match=r"kinks=\[5.0\] is not allowed: need .* within the "
+                                         r"table \[-1.0, 1.0\]"):
+        profiles.tabulated(x, x**2, kinks=[5.0])
+    assert profiles.tabulated(x, x**2, kinks=[-1.0, 0.0]).kinks == (0.0,)
