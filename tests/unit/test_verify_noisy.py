@@ -219,3 +219,25 @@ def test_worst_stick_wording_with_and_without_an_uncertainty_there():
         " (worst at stage 3, Q = -2; estimator uncertainty up to 7 element over the steps)")
     assert _worst_stick(SimpleNamespace(samples=rows[1:])) == " (worst at stage 3, Q = -2)"
     assert _worst_stick(SimpleNamespace(samples=[])) == ""
+
+
+def test_a_stick_fail_within_the_estimators_uncertainty_says_so():
+    """A FAIL is flagged when every failing step is within its uncertainty of the tolerance
+    (the verdict then flips with the noise); a clear FAIL and a pass are not."""
+    from types import SimpleNamespace
+
+    from compare.run import Check
+    from compare.verify import _stick_unresolved
+
+    def res(*rows):
+        samples = [{"stage": st, "Q": Q, "stick_edge_error_max": e, "stick_edge_error_max_elements":
+                    e / 0.01 * 0.5, "stick_uncertainty_elements": [(u, u)]}
+                   for st, Q, e, u in rows]  # 1 % of the width = 0.5 element
+        return SimpleNamespace(samples=samples, checks=(Check("stick", "m", 0.0, 0.01),))
+
+    (line,) = _stick_unresolved(res((2, 9.0, 0.004, 5.0), (3, 2.25, 0.022, 0.7)))
+    assert line.startswith("stick FAIL within the estimator's uncertainty: at stage 3, Q = 2.25 "
+                           "the error is 1.1 +- 0.7 element against a tolerance of 0.5 element")
+    assert _stick_unresolved(res((3, 2.25, 0.022, 0.5))) == []  # 1.1 - 0.5 > 0.5: a real FAIL
+    assert _stick_unresolved(res((3, 2.25, 0.009, 5.0))) == []  # a pass is not flagged
+    assert _stick_unresolved(res((3, 2.25, 0.022, 0.7), (3, 0.0, 0.05, 0.1))) == []
