@@ -116,15 +116,10 @@ def vector(name: str, value: object, min_size: int = 1,
            test: Callable[[np.ndarray], bool] | None = None, need: str = "") -> np.ndarray:
     """A 1-D array of at least ``min_size`` finite real numbers (a scalar counts as one)."""
     need = need or f"a 1-D sequence of at least {min_size} finite numbers"
-    if isinstance(value, (str, bytes)) or value is None:
+    arr = _numbers(name, value, need)
+    if arr.ndim > 1:
         raise refuse(name, value, need)
-    try:
-        arr = np.asarray(value)
-    except (TypeError, ValueError):
-        raise refuse(name, value, need) from None
-    if arr.dtype.kind not in "iuf" or arr.ndim > 1:
-        raise refuse(name, value, need)
-    arr = arr.astype(float).reshape(-1)
+    arr = arr.reshape(-1)
     if arr.size < min_size or not np.all(np.isfinite(arr)) or (test is not None and not test(arr)):
         raise refuse(name, value, need)
     return arr
@@ -133,13 +128,21 @@ def vector(name: str, value: object, min_size: int = 1,
 def array(name: str, value: object, need: str = "finite real numbers (a number or an array)"
           ) -> np.ndarray:
     """A float array of any shape (a scalar counts as 0-d) of finite real numbers."""
+    arr = _numbers(name, value, need)
+    if not np.all(np.isfinite(arr)):
+        raise refuse(name, value, need)
+    return arr
+
+
+def _numbers(name: str, value: object, need: str) -> np.ndarray:
+    """``value`` as a float array of any shape if it holds real numbers, else the refusal."""
     if isinstance(value, (str, bytes)) or value is None:
         raise refuse(name, value, need)
     try:
         arr = np.asarray(value)
     except (TypeError, ValueError):
         raise refuse(name, value, need) from None
-    if arr.dtype.kind not in "iuf" or not np.all(np.isfinite(arr)):
+    if arr.dtype.kind not in "iuf":
         raise refuse(name, value, need)
     return arr.astype(float)
 
