@@ -203,11 +203,11 @@ def _own_loads(t: Table) -> tuple:
 
 def _result(source: Path, header_tables: list, entries: list, settings: dict) -> ExternalResult:
     tables = [tab if isinstance(tab, Table) else read_table(tab) for _, _, tab in entries]
-    own = {id(t) for t in header_tables}
-    step_files = [t for t in tables if id(t) not in own]  # a manifest's: load items repeat it
+    own, step_files = {id(t) for t in header_tables}, []
     for (where, loads, _), table in zip(entries, tables, strict=True):
-        if id(table) not in own:
+        if id(table) not in own:  # a manifest's step file: its load items repeat its row
             check_step_loads(table, loads, where)
+            step_files.append(table)
     items, lines = {}, {}
     for t in header_tables + step_files:
         for k, v in t.items.items():
@@ -232,11 +232,11 @@ def check_step_loads(table: Table, loads: tuple, where: str) -> None:
         if key == "stage":
             same = text == str(ref)
         elif math.isnan(ref):
-            raise CaseError(f"{at}: header '{key} = {text}' in a step file of a manifest with no "
-                            f"{key} column; give {key} in the manifest ({where})")
+            raise CaseError(f"{at}: header '{key} = {text}' in a step file whose manifest row "
+                            f"gives no {key}; give {key} in the manifest ({where})")
         else:
             value = _float(text, at, key)
-            floor = SAME_LOAD_RTOL * row["P"] if key in "PQ" else 1e-12
+            floor = SAME_LOAD_RTOL * row["P"] if key in ("P", "Q") else 1e-12
             same = abs(value - ref) <= max(SAME_LOAD_RTOL * abs(ref), floor)
         if not same:
             raise CaseError(f"{at}: header '{key} = {text}' disagrees with the manifest's {key} "

@@ -433,18 +433,18 @@ def check_load_order(steps: tuple, loads: list) -> None:
     the wrong states."""
     P0 = max(ld[1] for ld in loads)
     for k in range(1, len(steps)):
-        (stage, *now), (before, *then) = loads[k], loads[k - 1]
-        if stage != before:
+        stage = loads[k][0]
+        if stage != loads[k - 1][0]:
             continue
         i, sense, what = STAGE_LOADS[stage]
-        if sense * (now[i - 1] - then[i - 1]) < -ORDER_RTOL * P0:
-            name = "PQ"[i - 1]
+        now, then, name = loads[k][i], loads[k - 1][i], " PQ"[i]
+        if sense * (now - then) < -ORDER_RTOL * P0:
             sign = ("; or Q of the opposite sign to ours (shear_sign = -1: q and Q on body 1, "
-                    "+ in +x)") if stage == 2 and now[i - 1] < 0 else ""
-            raise CaseError(f"{steps[k].where}: step out of load order: {name} = "
-                            f"{now[i - 1]:.6g} after {name} = {then[i - 1]:.6g} in stage {stage} "
-                            f"(in stage {stage} {what}; allowed going back: {ORDER_RTOL:g} of "
-                            f"P0 = {ORDER_RTOL * P0:.3g}); list the steps in load order{sign}")
+                    "+ in +x)") if stage == 2 and now < 0 else ""
+            raise CaseError(f"{steps[k].where}: step out of load order: {name} = {now:.6g} "
+                            f"after {name} = {then:.6g} in stage {stage} (in stage {stage} "
+                            f"{what}; allowed going back: {ORDER_RTOL:g} of P0 = "
+                            f"{ORDER_RTOL * P0:.3g}); list the steps in load order{sign}")
 
 
 def check_same_nodes(steps: tuple, arrays: list[dict]) -> None:
