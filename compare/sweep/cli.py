@@ -11,10 +11,10 @@ from __future__ import annotations
 import argparse
 import json
 import signal
-import sys
 from pathlib import Path
 
-from compare.errors import CaseError, SweepError
+from compare.errors import SweepError
+from compare.exits import EXIT_FAIL, EXIT_INPUT, EXIT_OK, EXIT_SIGINT, EXIT_SIGTERM
 from compare.fileio import check_store
 from compare.sweep.backends import check_scheduler
 from compare.sweep.runner import (
@@ -27,9 +27,9 @@ from compare.sweep.runner import (
 from compare.sweep.spec import Sweep, list_studies, load_sweep
 from compare.sweep.store import MANIFEST_FILE, RESULTS_FILE, read_records
 
-#: Exit codes of ``multicontact sweep``.
-EXIT_OK, EXIT_FAILED_CASES, EXIT_BAD_INPUT = 0, 1, 2
-EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143}
+#: Exit codes of ``multicontact sweep`` (those of every command, ``compare.exits``).
+EXIT_FAILED_CASES, EXIT_BAD_INPUT = EXIT_FAIL, EXIT_INPUT
+EXIT_SIGNAL = {signal.SIGINT: EXIT_SIGINT, signal.SIGTERM: EXIT_SIGTERM}
 #: Description of ``multicontact sweep --help``.
 DESCRIPTION = ("Parameter sweeps: many cases from one base case, run on a process pool or "
                "dask.distributed.")
@@ -98,17 +98,13 @@ def cmd_sweep_report(args) -> int:
     1 a case of the sweep failed, 2 bad input."""
     from compare.sweep.report import write_sweep_report
 
-    try:
-        given = _case_report_options(args)
-        if given:
-            raise SweepError(f"{', '.join(given)}: not for a sweep report (report --sweep DIR "
-                             "takes -o, --force and --json); leave them out, or run the case "
-                             "report without --sweep")
-        out = write_sweep_report(args.sweep, getattr(args, "out", None),
-                                 force=getattr(args, "force", False))
-    except (SweepError, CaseError) as exc:
-        print(f"multicontact report: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    given = _case_report_options(args)
+    if given:
+        raise SweepError(f"{', '.join(given)}: not for a sweep report (report --sweep DIR "
+                         "takes -o, --force and --json); leave them out, or run the case "
+                         "report without --sweep")
+    out = write_sweep_report(args.sweep, getattr(args, "out", None),
+                             force=getattr(args, "force", False))
     summ = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     if getattr(args, "json", False):
         print(json.dumps(summ | {"index": str(out / "index.html")}))
@@ -131,21 +127,18 @@ def _dry_run(sweep: Sweep, args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    """Entry of ``multicontact sweep`` (exit 0 all ok, 1 a case failed, 2 bad input, 130/143
-    interrupted)."""
-    try:
-        sweep = load_sweep(args.study)
-        _check_options(args)
-        check_store_owner(sweep, args.output)  # first: --force cannot help there
-        check_store(args.output, MANIFEST_FILE, args.force)
-        if args.dry_run:
-            return _dry_run(sweep, args)
-        res = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
-                        parts=args.part, retry_failed=args.retry_failed,
-                        progress=not args.no_progress and not args.json)
-    except (SweepError, CaseError) as exc:
-        print(f"multicontact sweep: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    """Entry of ``multicontact sweep`` (exit 0 all ok, 1 a case failed, 130/143 interrupted;
+    bad input raises :class:`SweepError`, a CaseError: exit 2 by ``compare.exits``, with
+    --json also as a JSON error object)."""
+    sweep = load_sweep(args.study)
+    _check_options(args)
+    check_store_owner(sweep, args.output)  # first: --force cannot help there
+    check_store(args.output, MANIFEST_FILE, args.force)
+    if args.dry_run:
+        return _dry_run(sweep, args)
+    res = run_sweep(sweep, args.output, workers=args.workers, scheduler=args.scheduler,
+                    parts=args.part, retry_failed=args.retry_failed,
+                    progress=not args.no_progress and not args.json)
     _print_outcome(res, args.json)
     if res.signal is not None:
         return EXIT_SIGNAL.get(res.signal, 130)

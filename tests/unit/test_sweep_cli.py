@@ -189,3 +189,16 @@ def test_manifest_is_plain_json_with_format(tmp_path):
     s = sw.load_sweep(sweep_file(tmp_path, "s1"))
     man = jsonable(s.manifest())
     assert man["format"] == sw.store.MANIFEST_FORMAT and sw.store.is_manifest(man)
+
+
+def test_sweep_errors_with_json_give_the_json_error_object(tmp_path, capsys):
+    """`sweep --json` and `report --sweep --json` print the JSON error object every command
+    prints (README, Errors), on stdout, with exit 2."""
+    import json
+
+    from compare.cli import main
+
+    assert main(["sweep", "nosuchstudy", "-o", str(tmp_path / "o"), "--json"]) == 2
+    assert json.loads(capsys.readouterr().out)["error"]["exit_code"] == 2
+    assert main(["report", "--sweep", str(tmp_path / "none"), "--json"]) == 2
+    assert json.loads(capsys.readouterr().out)["error"]["kind"] == "input"

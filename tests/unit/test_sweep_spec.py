@@ -121,7 +121,7 @@ def test_cli_exit_2_and_one_line(tmp_path, capsys, body):
     f.write_text('task = "analytic"\n' + body + "\n" + BASE)
     assert sw.main(["sweep", str(f), "-o", str(tmp_path / "out")]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err.strip()
-    assert err.startswith("multicontact sweep: error: s.toml: ")
+    assert err.startswith("multicontact: error: s.toml: ")
     assert len(err.splitlines()) == 1
     assert not (tmp_path / "out" / RESULTS_FILE).exists()
 
