@@ -194,8 +194,8 @@ def cmd_run(args) -> int:
         failed = cases[len(results)].name
         if not args.json:
             _print_results(results, False)
-        return report_error(args, "solver", f"solver did not converge in case {failed}: {exc}",
-                      EXIT_SOLVER, {"results": [r.summary() for r in results]})
+        return report_error(args, "solver", f"solver did not converge in case {failed}: "
+                            f"{exc}", EXIT_SOLVER, {"results": [r.summary() for r in results]})
     _print_results(results, args.json)
     return EXIT_OK if all(r.passed for r in results) else EXIT_FAIL
 
@@ -252,9 +252,7 @@ def cmd_verify(args) -> int:
     if args.out:  # refused before anything is computed
         plan_output(args.out, "verify", args.force)
     if len(args.result) > 1:
-        if args.out:
-            _fem_levels(args)
-        return _verify_sequence(args)
+        return _verify_sequence(args, _fem_levels(args) if args.out else None)
     res = verify(args.case, args.result[0], samples=args.samples, settings=_settings(args.set))
     report = write_verify_report(res, args.out, force=args.force) if args.out else None
     if args.json:
@@ -271,10 +269,6 @@ def cmd_verify(args) -> int:
     return EXIT_OK if res.passed else EXIT_FAIL
 
 
-#: Levels of our own FE's convergence study beside a mesh sequence's report (--fem-levels).
-DEFAULT_FEM_LEVELS = (0, 1, 2)
-
-
 def _check_verify_options(args) -> None:
     """``verify``: --force applies to -o; --fem-levels to the report of a mesh sequence."""
     if args.force and not args.out:
@@ -286,22 +280,18 @@ def _check_verify_options(args) -> None:
 
 
 def _fem_levels(args) -> list[int]:
-    """--fem-levels (default DEFAULT_FEM_LEVELS), refused by that name unless refining."""
-    from compare.convergence import study_values
-    from compare.errors import CaseError
+    """--fem-levels (default compare.convergence.DEFAULT_LEVELS), refused by that name unless
+    refining."""
+    from compare.convergence import DEFAULT_LEVELS, study_values
 
-    levels = DEFAULT_FEM_LEVELS if args.fem_levels is None else args.fem_levels
-    try:
-        return study_values("h", levels)
-    except CaseError as exc:
-        given = " ".join(str(v) for v in levels)
-        why = str(exc).partition(" is not allowed")[2] or f": {exc}"
-        raise CaseError(f"--fem-levels {given} is not allowed{why}") from None
+    levels = DEFAULT_LEVELS if args.fem_levels is None else args.fem_levels
+    return study_values("h", levels, label="--fem-levels")
 
 
-def _verify_sequence(args) -> int:
+def _verify_sequence(args, levels: list[int] | None) -> int:
     """``verify CASE R1 R2 ...``: the results as a mesh sequence (compare.verify_sequence); the
-    report (-o) shows our own FE's h-convergence (--fem-levels) on the same axes."""
+    report (-o) shows our own FE's h-convergence at ``levels`` (--fem-levels) on the same
+    axes."""
     from compare.convergence import convergence
     from compare.verify_sequence import sequence_text, verify_convergence, write_sequence_report
 
@@ -309,7 +299,7 @@ def _verify_sequence(args) -> int:
                              settings=_settings(args.set))
     report = None
     if args.out:
-        ours = convergence(_case(args, args.case), levels=_fem_levels(args))
+        ours = convergence(_case(args, args.case), levels=levels)
         report = write_sequence_report(seq, args.out, reference=ours, force=args.force)
     if args.json:
         _print_json(seq.summary() | ({"index": report["index"]} if report else {}))
@@ -318,10 +308,6 @@ def _verify_sequence(args) -> int:
         if report:
             print(f"report written: {report['index']}")
     return EXIT_OK if seq.converges else EXIT_FAIL
-
-
-#: Levels of ``converge --kind h`` without --levels.
-DEFAULT_LEVELS = (0, 1, 2)
 
 
 def _check_converge_options(args) -> None:
@@ -335,7 +321,7 @@ def _check_converge_options(args) -> None:
 
 
 def cmd_converge(args) -> int:
-    from compare.convergence import convergence, convergence_text
+    from compare.convergence import DEFAULT_LEVELS, convergence, convergence_text
 
     _check_converge_options(args)
     levels = DEFAULT_LEVELS if args.levels is None else args.levels
@@ -409,8 +395,8 @@ def cmd_report(args) -> int:
         summary = write_report(cases, out, convergence_cases=conv, fig5=not args.no_fig5,
                                progress=steps.step, vtk=args.vtk or "ends", force=args.force)
     except solver_errors() as exc:  # the units before it are listed as they finished
-        return report_error(args, "solver", f"solver did not converge in {steps.current()}: {exc}; "
-                      "no report was written", EXIT_SOLVER)
+        return report_error(args, "solver", f"solver did not converge in {steps.current()}: "
+                            f"{exc}; no report was written", EXIT_SOLVER)
     if args.json:
         _print_json(summary)
     else:

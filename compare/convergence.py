@@ -301,11 +301,16 @@ _REFINED = {"h": "levels, each finer than the last (increasing integers, e.g. 0 
             "domain": "size factors >= 2, each larger than the last (increasing), e.g. 6 12 25"}
 
 
-def study_values(kind: str, levels: Sequence[int] = (0, 1, 2),
-                 values: Sequence[float] | None = None) -> list:
+#: Mesh levels of an h-study when none are given.
+DEFAULT_LEVELS = (0, 1, 2)
+
+
+def study_values(kind: str, levels: Sequence[int] = DEFAULT_LEVELS,
+                 values: Sequence[float] | None = None, label: str | None = None) -> list:
     """The runs of a study of ``kind``: ``levels`` for 'h', ``values`` (or their defaults) for
     'penalty' and 'domain'; CaseError unless there are at least two, in refining order (orders,
-    the stall and the verdict read the last run as the finest), levels whole numbers."""
+    the stall and the verdict read the last run as the finest), levels whole numbers.  ``label``:
+    how the error names them (e.g. a CLI option; default ``levels=`` / ``values=``)."""
     if kind not in KINDS:
         raise CaseError(f"kind={kind!r} is not allowed: need one of {', '.join(KINDS)}")
     default = (100.0, 1e4, math.inf) if kind == "penalty" else (6.0, 12.0, 25.0)
@@ -318,14 +323,16 @@ def study_values(kind: str, levels: Sequence[int] = (0, 1, 2),
            or (kind == "h" and not np.all(num == np.round(num)))
            or (kind == "penalty" and not num[0] > 0))
     if bad:
-        what = "levels" if kind == "h" else "values"
-        raise CaseError(f"{what}={' '.join(f'{v:g}' for v in num)} is not allowed for "
+        given = " ".join(f"{v:g}" for v in num)
+        what = f"{label} {given}" if label else \
+            f"{'levels' if kind == 'h' else 'values'}={given}"
+        raise CaseError(f"{what} is not allowed for "
                         f"{'an' if kind == 'h' else 'a'} {kind}-study: need at least two "
                         f"{_REFINED[kind]}")
     return [int(v) for v in vals] if kind == "h" else [float(v) for v in vals]
 
 
-def convergence(case: Case | str, levels: Sequence[int] = (0, 1, 2), kind: str = "h",
+def convergence(case: Case | str, levels: Sequence[int] = DEFAULT_LEVELS, kind: str = "h",
                 values: Sequence[float] | None = None,
                 progress: Callable[[int, int], None] | None = None,
                 phase_locked: bool = False) -> ConvergenceStudy:

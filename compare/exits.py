@@ -42,8 +42,9 @@ def run_command(parse: Callable[[], argparse.Namespace]) -> int:
             return code
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
             term = isinstance(exc, Terminated)
-            return report_error(args, "interrupted", "interrupted" + (" (SIGTERM)" if term else ""),
-                          EXIT_SIGTERM if term else EXIT_SIGINT)
+            return report_error(args, "interrupted",
+                                "interrupted" + (" (SIGTERM)" if term else ""),
+                                EXIT_SIGTERM if term else EXIT_SIGINT)
         except BrokenPipeError:
             if not _stdout_gone():
                 raise

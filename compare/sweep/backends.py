@@ -158,15 +158,21 @@ SCHEDULER_FORMS = "'local' (a dask LocalCluster here) or tcp://HOST:PORT (an exi
 _TCP_ADDRESS = re.compile(r"tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+):([0-9]{1,5})")
 
 
-def check_scheduler(scheduler: str | None) -> str | None:
+def check_scheduler(scheduler: str | None, workers: int | None = None) -> str | None:
     """``scheduler`` if it is None, 'local' or tcp://HOST:PORT (port 1-65535), else a
-    SweepError naming it and the allowed forms (checked before anything is written)."""
+    SweepError naming it and the allowed forms (checked before anything is written); a number
+    of ``workers`` given with a tcp:// scheduler is refused too (the workers are that
+    cluster's)."""
     if scheduler is None or scheduler == "local":
         return scheduler
     m = _TCP_ADDRESS.fullmatch(scheduler) if isinstance(scheduler, str) else None
     if m is None or not 1 <= int(m[2]) <= 65535:
         raise SweepError(f"scheduler {scheduler!r} is not allowed: give {SCHEDULER_FORMS}, "
                          "e.g. tcp://127.0.0.1:8786")
+    if workers is not None:
+        raise SweepError(f"workers={workers!r} does not apply to scheduler {scheduler}: the "
+                         "workers are that cluster's; workers sizes the local pool or "
+                         "scheduler 'local'")
     return scheduler
 
 

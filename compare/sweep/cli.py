@@ -148,11 +148,7 @@ def cmd_sweep(args) -> int:
 def _check_options(args) -> None:
     """--workers and --scheduler, checked before anything is written (also for --dry-run)."""
     check_workers(args.workers)
-    check_scheduler(args.scheduler)
-    if args.workers is not None and args.scheduler not in (None, "local"):
-        raise SweepError(f"--workers {args.workers} does not apply to --scheduler "
-                         f"{args.scheduler}: the workers are that cluster's; --workers sizes "
-                         "the local pool or --scheduler local")
+    check_scheduler(args.scheduler, args.workers)
 
 
 def _failed_in_store(sweep: Sweep, args) -> bool:

@@ -102,8 +102,8 @@ def run_sweep(sweep: Sweep | str | Path, directory: str | Path, *, workers: int 
     anything is written.  SIGINT / SIGTERM stop the run after keeping every finished record.
     """
     sweep = sweep if isinstance(sweep, Sweep) else load_sweep(sweep)
+    check_scheduler(scheduler, workers)
     workers = check_workers(workers)
-    check_scheduler(scheduler)
     check_store_owner(sweep, directory)
     todo, _ = pending_cases(sweep, directory, parts, retry_failed)
     run_id, t0 = uuid.uuid4().hex[:12], time.perf_counter()
@@ -114,7 +114,7 @@ def run_sweep(sweep: Sweep | str | Path, directory: str | Path, *, workers: int 
         todo, skipped = pending_cases(sweep, directory, parts, retry_failed)
         counts = Counter()
         prog, tid = _progress(progress, len(todo) + skipped, skipped)
-        with prog, _runner(todo, sweep, workers, client, stop) as records:
+        with prog, _runner(todo, sweep, workers, scheduler, client, stop) as records:
             for rec in records:
                 rec["run"] = run_id
                 store.append(rec)
@@ -142,7 +142,11 @@ def check_store_owner(sweep: Sweep, directory: str | Path) -> None:
     drop out of the manifest and the report).  A new or empty folder, and this sweep's own
     store (resume; values added to an axis), pass."""
     directory = Path(directory)
-    man = store_manifest(directory)
+    try:
+        man = store_manifest(directory)
+    except SweepError as exc:
+        raise SweepError(f"{exc}; nothing was written: give the sweep a folder of its own"
+                         ) from None
     if man is None:
         if (directory / RESULTS_FILE).exists():
             raise SweepError(f"{directory / RESULTS_FILE} has no {MANIFEST_FILE} beside it: "
@@ -187,12 +191,13 @@ def _backend(scheduler: str | None, workers: int, needed: bool):
 
 
 @contextlib.contextmanager
-def _runner(todo: list[SweepCase], sweep: Sweep, workers: int, client, stop: StopFlag):
+def _runner(todo: list[SweepCase], sweep: Sweep, workers: int, scheduler: str | None, client,
+            stop: StopFlag):
     tasks = [c.as_task(sweep) for c in todo]
     if not tasks:
         yield iter(())
         return
-    gen = run_local(tasks, workers, stop) if client is None else run_dask(tasks, client, stop)
+    gen = run_dask(tasks, client, stop) if scheduler else run_local(tasks, workers, stop)
     try:
         yield gen
     finally:

@@ -17,6 +17,9 @@ from pathlib import Path
 
 from compare.errors import SweepError
 
+#: Version of the record / manifest layout (``schema`` field of every record).
+SCHEMA_VERSION = 1
+
 RESULTS_FILE = "results.jsonl"
 MANIFEST_FILE = "sweep.json"
 LOCK_FILE = ".lock"
@@ -59,7 +62,8 @@ def is_manifest(doc: object) -> bool:
     marked = doc.get("format") == MANIFEST_FORMAT or (LEGACY_FIELDS <= set(doc)
                                                       and "format" not in doc)
     cases = doc.get("cases")
-    return (marked and doc.get("schema") == 1 and isinstance(doc.get("name"), str)
+    schema = SCHEMA_VERSION if "format" in doc else 1  # the legacy manifests are schema 1
+    return (marked and doc.get("schema") == schema and isinstance(doc.get("name"), str)
             and isinstance(cases, list)
             and all(isinstance(c, dict) and isinstance(c.get("key"), str) for c in cases))
 
@@ -75,9 +79,9 @@ def store_manifest(directory: str | Path) -> dict | None:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
         doc = None
     if not is_manifest(doc):
-        raise SweepError(f"{path} is not a multicontact sweep manifest (it has no \"format\": "
-                         f"\"{MANIFEST_FORMAT}\"), so {directory} is not a sweep's folder; "
-                         "nothing was written: give the sweep a folder of its own")
+        raise SweepError(f"{path} is not a multicontact sweep manifest (\"format\": "
+                         f"\"{MANIFEST_FORMAT}\", schema {SCHEMA_VERSION}, a name and a list "
+                         f"of cases with keys), so {directory} is not a sweep's folder")
     return doc
 
 

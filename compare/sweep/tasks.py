@@ -24,9 +24,7 @@ import numpy as np
 
 import compare
 from compare import cases as case_schema
-
-#: Version of the record / manifest layout (``schema`` field of every record).
-SCHEMA_VERSION = 1
+from compare.sweep.store import SCHEMA_VERSION
 
 
 # =============================================================================================

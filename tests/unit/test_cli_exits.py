@@ -133,7 +133,7 @@ def test_report_solver_failure_names_the_unit(tmp_path, capsys, monkeypatch):
     (["sweep", "fig5_sweep", "-o", "OUT", "--workers", "0", "--dry-run"],
      "workers=0 is not allowed: need >= 1"),
     (["sweep", "fig5_sweep", "-o", "OUT", "--workers", "2", "--scheduler", "tcp://h:8786"],
-     "--workers 2 does not apply to --scheduler tcp://h:8786"),
+     "workers=2 does not apply to scheduler tcp://h:8786"),
 ])
 def test_ignored_options_refused_before_anything_runs(tmp_path, capsys, monkeypatch, argv,
                                                       words):

@@ -202,3 +202,13 @@ def test_sweep_errors_with_json_give_the_json_error_object(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["error"]["exit_code"] == 2
     assert main(["report", "--sweep", str(tmp_path / "none"), "--json"]) == 2
     assert json.loads(capsys.readouterr().out)["error"]["kind"] == "input"
+
+
+def test_run_sweep_refuses_workers_with_a_tcp_scheduler(tmp_path):
+    """The API refuses what the CLI refuses: workers are the cluster's under tcp://."""
+    from compare.errors import SweepError
+    from compare.sweep.runner import run_sweep
+
+    with pytest.raises(SweepError, match="workers=4 does not apply to scheduler tcp://h:8786"):
+        run_sweep("fig5_sweep", tmp_path / "o", workers=4, scheduler="tcp://h:8786")
+    assert not (tmp_path / "o").exists()
