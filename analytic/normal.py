@@ -100,7 +100,7 @@ def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
     ``M=None``: vertical indentation (rotation locked; the moment is an output).  ``M`` given:
     applied moment about x = 0; the rigid rotation ``theta`` is an output.
     """
-    P, A = _validate(profile, P, A)
+    P, A = check_problem(profile, P, A)
     M = check.optional_real("M", M, "a finite moment, or None for vertical indentation")
     with counted_events() as events:
         if M is None:
@@ -113,7 +113,7 @@ def solve_normal(profile: Profile, P: float, A: float, M: float | None = None
 def solve_normal_fixed_rotation(profile: Profile, P: float, A: float, theta: float
                                 ) -> NormalSolution:
     """Normal problem with the rigid rotation prescribed (the stick-zone reduced problem)."""
-    P, A = _validate(profile, P, A)
+    P, A = check_problem(profile, P, A)
     theta = check.real("theta", theta)
     _validate_theta(profile, theta)
     with counted_events() as events:
@@ -131,7 +131,7 @@ def load_curve(profile: Profile, loads: Sequence[float], A: float, M: float | No
     """
     loads = check.vector("loads", loads, 1, lambda v: bool(np.all(v > 0)),
                          "a non-empty 1-D sequence of finite loads > 0")
-    _, A = _validate(profile, loads.min(), A)
+    _, A = check_problem(profile, loads.min(), A)
     check.load_scale(A, float(loads.max()))
     M, theta = check.optional_real("M", M), check.optional_real("theta", theta)
     if M is not None and theta is not None:
@@ -181,7 +181,7 @@ def _finish(st: State, sys_: System, profile: Profile, A: float, mode: str,
     return sol
 
 
-def _validate(profile: Profile, P: float, A: float) -> tuple[float, float]:
+def check_problem(profile: Profile, P: float, A: float) -> tuple[float, float]:
     """Refuse a non-profile, P, A not finite and > 0, or A P outside
     :data:`analytic._validate.AP_RANGE` (:mod:`analytic._validate`)."""
     check.instance("profile", profile, Profile, "an analytic.profiles.Profile")

@@ -23,7 +23,7 @@ from analytic import _validate as check
 from analytic._contour import zone_loads
 from analytic._sie import Layout, System
 from analytic.errors import InputError
-from analytic.normal import load_curve
+from analytic.normal import check_problem, load_curve
 from analytic.profiles import Profile, double_wedge
 
 SCAN_POINTS = 4001
@@ -90,9 +90,7 @@ def _load_for(profile: Profile, A: float, delta: float, theta: float):
 
 def overlapped(profile: Profile, P: float, A: float, theta: float = 0.0) -> OverlapSolution:
     """Free-interpenetration estimate of the contact zones at load P (paper Section 6)."""
-    check.instance("profile", profile, Profile, "an analytic.profiles.Profile")
-    P, A = check.positive("P", P, "load"), check.positive("A", A, "compliance")
-    check.load_scale(A, P)
+    P, A = check_problem(profile, P, A)
     theta = check.real("theta", theta)
     d_hi = 1e-6 * profile.scale
     for _ in range(200):

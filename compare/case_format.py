@@ -326,11 +326,11 @@ def name_problem(name: str) -> str:
     return ""
 
 
-def check_name(name: str, src: str, key: str = "name") -> None:
+def check_name(name: str, src: str) -> None:
     """CaseError naming ``name`` and what is allowed when it cannot be a case name."""
     why = name_problem(name)
     if why:
-        raise CaseError(f"{key}={name!r} is not allowed ({why}): need {NAME_ALLOWED} ({src})")
+        raise CaseError(f"name={name!r} is not allowed ({why}): need {NAME_ALLOWED} ({src})")
 
 
 def case_fields(doc: dict, name: str = "case", src: str = "case",

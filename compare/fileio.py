@@ -71,14 +71,12 @@ def umask_mode(mode: int = 0o777) -> int:
 
 @dataclass(frozen=True)
 class OutputPlan:
-    """A checked output directory: its absolute path, the command writing it, the files of
-    that command's previous output there when it was planned (relative paths; empty for a new
-    folder or one without that command's output; the swap goes by the manifest it finds then)
-    and whether the user forced it."""
+    """A checked output directory: its absolute path, the command writing it and whether the
+    user forced it (what is replaced there is read from its manifest when the output is put in
+    place)."""
 
     out: Path
     command: str
-    previous: tuple[str, ...]
     force: bool = False
 
 
@@ -215,16 +213,17 @@ def plan_output(out: str | Path, command: str, force: bool = False,
     path = _folder(out, "multicontact writes only into a folder of its own, e.g. -o report",
                    "give a folder (new or one that multicontact wrote)")
     if not path.exists():
-        return OutputPlan(path, command, (), force)
+        return OutputPlan(path, command, force)
     owned = read_owned(path)
     mine = _mine(owned, command)
+    foreign = _foreign(path, owned)
     if not force:
-        _refuse_unforced(out, command, owned, _foreign(path, owned))
+        _refuse_unforced(out, command, owned, foreign)
     _refuse_blocked(out, command, _blocked(path, (*expected, OWNED_FILE), mine), "written",
-                    _legacy_hint(owned, _foreign(path, owned)))
+                    _legacy_hint(owned, foreign))
     for where in _own_folders(path, mine):
         _probe(out, where)
-    return OutputPlan(path, command, tuple(sorted(mine - {OWNED_FILE})), force)
+    return OutputPlan(path, command, force)
 
 
 def _refuse_unforced(out: str | Path, command: str, owned: dict | None,
@@ -267,18 +266,16 @@ def check_apart(folders: Mapping[str, str | Path | None]) -> None:
 
 
 def child(root: Path, name: str, suffix: str = "") -> Path:
-    """``root / (name + suffix)`` for a case name in an output path.  CaseError unless ``name``
-    is one path component (not empty, no '/' or '\\', not starting with '.') and the path
-    stays directly inside ``root``: a case name never writes elsewhere."""
+    """``root / (name + suffix)`` for a case name in an output path: CaseError unless ``name``
+    is a non-empty string making one path component (no '/', '\\' or NUL, not starting with
+    '.'), so that the path stays directly inside ``root`` (case files are held to a stricter
+    rule, ``compare.case_format.check_name``)."""
     part = f"{name}{suffix}" if isinstance(name, str) else ""
-    path = root / part
-    ok = (bool(name) and not part.startswith(".") and not {"/", "\\", "\0"} & set(part)
-          and Path(os.path.normpath(path)).parent == Path(os.path.normpath(root)))
-    if not ok:
-        raise CaseError(f"case name {name!r} cannot name a file in the output folder: a case "
-                        "name is one file name (letters, digits, '_', '-', '.'; not starting "
-                        "with '.'); nothing was written there")
-    return path
+    if not (name and part) or part.startswith(".") or {"/", "\\", "\0"} & set(part):
+        raise CaseError(f"case name {name!r} cannot name a file in the output folder: it must "
+                        "be one path component (no '/' or '\\', not starting with '.'); "
+                        "nothing was written there")
+    return root / part
 
 
 def check_store(out: str | Path, marker: str, force: bool = False) -> Path:
@@ -331,9 +328,8 @@ def _commit(plan: OutputPlan, tmp: Path) -> None:
     mine = _mine(owned, plan.command)  # the manifest now: only this command's files go
     _refuse_blocked(plan.out, plan.command, _blocked(plan.out, files + [OWNED_FILE], mine),
                     "replaced")
-    old = [f for f in sorted(mine) if (plan.out / f).exists() or (plan.out / f).is_symlink()]
     try:
-        _swap(plan.out, tmp, old, files + [OWNED_FILE])
+        _swap(plan.out, tmp, sorted(mine), files + [OWNED_FILE])
     except OSError as exc:
         raise CaseError(f"output folder {plan.out}: cannot write in it ({exc.strerror or exc}: "
                         f"{exc.filename}); nothing was replaced, the previous output is as it "
@@ -341,8 +337,9 @@ def _commit(plan: OutputPlan, tmp: Path) -> None:
 
 
 def _swap(out: Path, tmp: Path, old: list[str], new: list[str]) -> None:
-    """Move the files ``old`` of ``out`` aside and the files ``new`` of ``tmp`` in; on any
-    failure put everything back.  Then remove the old files and the folders they left empty."""
+    """Move the files ``old`` of ``out`` (those that are there) aside and the files ``new`` of
+    ``tmp`` in; on any failure put everything back.  Then remove the old files and the folders
+    they left empty."""
     aside = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
     moved, placed = [], []
     try:

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from compare._forkserver import forkserver_context, ignore_interrupts, kill_pool
+from compare.case_format import check_name
 from compare.cases import Case, case_from_dict, check_unique_names, load_case
 from compare.convergence import ConvergenceStudy, convergence
 from compare.errors import CaseError
@@ -157,8 +158,9 @@ def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: st
     loaded = [load_case(c) for c in cases]
     conv = DEFAULT_CONVERGENCE if convergence_cases is None else convergence_cases
     conv_cases = {name: (load_case(name), levels) for name, levels in conv.items()}
-    _check_names(loaded, [c for c, _ in conv_cases.values()])
-    plan = plan_output(out_dir, "report", force, expected=_expected(loaded, fig5))
+    studied = [c for c, _ in conv_cases.values()]
+    _check_names(loaded, studied)
+    plan = plan_output(out_dir, "report", force, expected=_expected(loaded, studied, fig5))
     with owned_output(out_dir, "report", force, plan) as tmp:
         summary = _build(loaded, conv_cases, fig5, tmp, progress or (lambda msg: None), t0,
                          vtk=vtk)
@@ -167,18 +169,21 @@ def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: st
 
 
 def _check_names(cases: list[Case], studied: list[Case]) -> None:
-    """CaseError unless every case and every studied case has its own name, one file name
-    (:func:`compare.fileio.child`): the names name the figures and VTK folders."""
+    """CaseError unless every case and every studied case has its own name, one plain file
+    name (:func:`compare.case_format.check_name`): the names name the figures and VTK
+    folders."""
     check_unique_names(cases, "report sections, figures and VTK series")
     check_unique_names(studied, "convergence figures")
     for case in cases + studied:
-        child(Path("."), case.name)
+        check_name(case.name, case.source or "given")
 
 
-def _expected(cases: list[Case], fig5: bool) -> tuple[str, ...]:
-    """Files and folders (ending in '/') the report will write, checked against the files
-    already in its folder before anything is computed."""
+def _expected(cases: list[Case], studied: list[Case], fig5: bool) -> tuple[str, ...]:
+    """Files and folders (ending in '/') the report will write that are known before anything
+    is computed, checked against the files already in its folder then (a case's numbered and
+    body figures are checked when the report is put in place)."""
     names = [*REPORT_FILES, "vtk/", *(f"vtk/{c.name}/" for c in cases)]
+    names += [f"figures/{c.name}_convergence.png" for c in studied]
     return tuple(names + (["study_fig5.html", "figures/fig5.png"] if fig5 else []))
 
 

@@ -199,7 +199,7 @@ def test_unwritable_place_refused_before_anything_is_computed(tmp_path, monkeypa
     for out in (tmp_path / "new" / "rep", tmp_path):
         with pytest.raises(CaseError, match=r"cannot write in .* \(Permission denied\)"):
             plan_output(out / "rep", "report")
-    plan = fileio.OutputPlan((tmp_path / "rep").resolve(), "report", ())  # planned before
+    plan = fileio.OutputPlan((tmp_path / "rep").resolve(), "report")  # planned before
     with pytest.raises(CaseError, match=r"cannot write in .* \(Permission denied\); nothing was "
                        "written"), owned_output(tmp_path / "rep", "report", plan=plan):
         pytest.fail("written without a temporary folder")
