@@ -378,12 +378,11 @@ def _report_inputs(args) -> tuple[list, dict]:
 
 
 def cmd_report(args) -> int:
-    from compare.fileio import plan_output
-    from compare.report import REPORT_FILES, write_report
+    from compare.report import build_report, plan_report
 
     cases, conv = _report_inputs(args)
     out = args.out or DEFAULT_REPORT_DIR
-    plan_output(out, "report", args.force, expected=REPORT_FILES)
+    plan = plan_report(cases, out, conv, not args.no_fig5, args.vtk or "ends", args.force)
     steps = _Steps([f"case {c.name}" for c in cases]
                    + [f"the convergence study of {n}" for n in conv]
                    + ([] if args.no_fig5 else ["the Fig. 5 study"]))
@@ -392,8 +391,7 @@ def cmd_report(args) -> int:
           f"{'' if args.no_fig5 else ', the Fig. 5 study'} into {out} (a case takes 5-40 s; "
           "two run at a time)", file=sys.stderr, flush=True)
     try:
-        summary = write_report(cases, out, convergence_cases=conv, fig5=not args.no_fig5,
-                               progress=steps.step, vtk=args.vtk or "ends", force=args.force)
+        summary = build_report(plan, progress=steps.step)
     except solver_errors() as exc:  # the units before it are listed as they finished
         return report_error(args, "solver", f"solver did not converge in {steps.current()}: "
                             f"{exc}; no report was written", EXIT_SOLVER)

@@ -16,7 +16,9 @@ to ``DIR`` and swapped in at the end, so a failed or interrupted run leaves the 
 as it was.  The VTK series hold the interface at the last step of each stage and the bodies
 under the largest load, the pictured step (``vtk="all"``: every step; ``fem.write_vtk``).  The
 cases, the convergence studies and the Fig. 5 study run in REPORT_WORKERS forked processes, the
-pyvista pictures in one child process at the end.
+pyvista pictures in one child process at the end.  ``write_report`` is ``plan_report`` (every
+check, before anything is computed) then ``build_report``; the CLI announces the run between
+the two.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from compare.case_format import check_name
 from compare.cases import Case, case_from_dict, check_unique_names, load_case
 from compare.convergence import ConvergenceStudy, convergence
 from compare.errors import CaseError
-from compare.fileio import child, owned_output, plan_output
+from compare.fileio import OutputPlan, child, owned_output, plan_output
 from compare.report import figures, region, zones
 from compare.report.fig5 import fig5_rows
 from compare.report.html import case_html, case_md, page, study_html, verdict_text
@@ -136,35 +138,62 @@ def _summary(sections: list[CaseSection], studies: list[ConvergenceStudy], fig5:
             "elapsed_seconds": elapsed}
 
 
+@dataclass(frozen=True)
+class ReportPlan:
+    """A report checked before anything is computed (:func:`plan_report`): its loaded cases,
+    its convergence studies (name -> (case, levels)), whether it has the Fig. 5 study, the VTK
+    steps and the checked output folder."""
+
+    cases: list
+    studies: dict
+    fig5: bool
+    vtk: str
+    output: OutputPlan
+
+
+def plan_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE,
+                out_dir: str | Path = "report", convergence_cases: dict | None = None,
+                fig5: bool = True, vtk: str = "ends", force: bool = False) -> ReportPlan:
+    """Load (and validate) the cases and studies, check their names (each its own, one file
+    name: they name the figures and VTK folders) and ``out_dir``
+    (:func:`compare.fileio.plan_output`, with the files and folders the report writes): bad
+    input raises :class:`compare.errors.CaseError` before anything is computed or written.
+    Arguments as :func:`write_report`."""
+    if vtk not in VTK_STEPS:
+        raise CaseError(f"vtk = {vtk!r}: allowed {', '.join(VTK_STEPS)}")
+    loaded = [load_case(c) for c in cases]
+    conv = DEFAULT_CONVERGENCE if convergence_cases is None else convergence_cases
+    studies = {name: (load_case(name), levels) for name, levels in conv.items()}
+    studied = [c for c, _ in studies.values()]
+    _check_names(loaded, studied)
+    out = plan_output(out_dir, "report", force, expected=_expected(loaded, studied, fig5))
+    return ReportPlan(loaded, studies, fig5, vtk, out)
+
+
 def write_report(cases: Sequence[str | Path | Case] = DEFAULT_SUITE, out_dir: str | Path = "report",
                  convergence_cases: dict | None = None, fig5: bool = True,
                  progress: Progress | None = None, vtk: str = "ends", force: bool = False
                  ) -> dict:
     """Run ``cases`` and write the report into ``out_dir``; returns the summary dict.
 
-    All cases are loaded (and validated), their names checked (each its own, one file name:
-    they name the figures and VTK folders) and ``out_dir`` is checked
-    (:func:`compare.fileio.plan_output`, with the files and folders the report writes) before
-    anything is computed: bad input raises :class:`compare.errors.CaseError` and nothing is
-    written.  ``convergence_cases`` maps case names to level tuples (default
-    :data:`DEFAULT_CONVERGENCE`; ``{}`` for none).  ``progress`` receives a short message after
-    each unit of work.  ``vtk``: one of :data:`VTK_STEPS`; ``force``: write beside files the
-    report did not write in ``out_dir`` (a user's, another command's output: they are kept,
-    never deleted or overwritten).
+    Everything is checked first (:func:`plan_report`): bad input raises
+    :class:`compare.errors.CaseError` and nothing is written.  ``convergence_cases`` maps case
+    names to level tuples (default :data:`DEFAULT_CONVERGENCE`; ``{}`` for none).
+    ``progress`` receives a short message after each unit of work.  ``vtk``: one of
+    :data:`VTK_STEPS`; ``force``: write beside files the report did not write in ``out_dir`` (a
+    user's, another command's output: they are kept, never deleted or overwritten).
     """
+    plan = plan_report(cases, out_dir, convergence_cases, fig5, vtk, force)
+    return build_report(plan, progress)
+
+
+def build_report(plan: ReportPlan, progress: Progress | None = None) -> dict:
+    """Run a planned report (:func:`plan_report`) and write it; returns the summary dict."""
     t0 = time.perf_counter()
-    if vtk not in VTK_STEPS:
-        raise CaseError(f"vtk = {vtk!r}: allowed {', '.join(VTK_STEPS)}")
-    loaded = [load_case(c) for c in cases]
-    conv = DEFAULT_CONVERGENCE if convergence_cases is None else convergence_cases
-    conv_cases = {name: (load_case(name), levels) for name, levels in conv.items()}
-    studied = [c for c, _ in conv_cases.values()]
-    _check_names(loaded, studied)
-    plan = plan_output(out_dir, "report", force, expected=_expected(loaded, studied, fig5))
-    with owned_output(out_dir, "report", force, plan) as tmp:
-        summary = _build(loaded, conv_cases, fig5, tmp, progress or (lambda msg: None), t0,
-                         vtk=vtk)
-    summary["index"] = str(plan.out / "index.html")
+    with owned_output(plan.output.out, "report", plan.output.force, plan.output) as tmp:
+        summary = _build(plan.cases, plan.studies, plan.fig5, tmp,
+                         progress or (lambda msg: None), t0, vtk=plan.vtk)
+    summary["index"] = str(plan.output.out / "index.html")
     return summary
 
 

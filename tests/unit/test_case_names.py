@@ -173,3 +173,17 @@ def test_run_vtk_refuses_two_cases_of_one_name(tmp_path, capsys):
     assert main(["run", str(one), str(two), "--vtk", str(tmp_path / "v")]) == 2
     assert "two cases are named 'c'" in capsys.readouterr().err
     assert not (tmp_path / "v").exists()
+
+
+def test_report_cli_plans_the_whole_folder_before_its_banner(tmp_path, capsys):
+    """`report` checks its case folders (vtk/<name>/) with the rest, before it announces the
+    run: one plan (compare.report.plan_report) serves the check and the build."""
+    out = tmp_path / "rep"
+    (out / "vtk").mkdir(parents=True)
+    (out / "vtk" / "c").write_text("a user's file")
+    argv = ["report", str(case_file(tmp_path, "c")), "-o", str(out), "--no-fig5", "--force",
+            "--convergence"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "vtk/c" in err and "multicontact report: 1 cases" not in err
+    assert (out / "vtk" / "c").read_text() == "a user's file"

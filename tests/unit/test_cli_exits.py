@@ -98,11 +98,11 @@ def test_report_solver_failure_names_the_unit(tmp_path, capsys, monkeypatch):
     import analytic.errors
     import compare.report as rep
 
-    def fake(cases, out, convergence_cases, progress, **kw):
+    def fake(plan, progress):
         progress("case hertz: agrees")
         raise analytic.errors.ConvergenceError("self-check failed")
 
-    monkeypatch.setattr(rep, "write_report", fake)
+    monkeypatch.setattr(rep, "build_report", fake)
     bad = tmp_path / "badm.toml"
     bad.write_text(BAD_M)
     argv = ["report", "hertz", str(bad), "-o", str(tmp_path / "r"), "--no-fig5"]

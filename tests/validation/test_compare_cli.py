@@ -114,11 +114,11 @@ def test_report_levels_apply_to_the_default_study(tmp_path, monkeypatch):
     rep = importlib.import_module("compare.report")
     seen = {}
 
-    def fake(cases, out, convergence_cases, **kw):
-        seen.update(convergence_cases)
+    def fake(plan, progress):
+        seen.update({name: levels for name, (_, levels) in plan.studies.items()})
         return {"index": str(tmp_path / "index.html"), "passed": True, "elapsed_seconds": 0.0}
 
-    monkeypatch.setattr(rep, "write_report", fake)
+    monkeypatch.setattr(rep, "build_report", fake)
     monkeypatch.setattr("compare.cli._size", lambda path: "0 B")
     main(["report", "hertz", "-o", str(tmp_path / "r"), "--levels", "0", "1", "2", "--no-fig5"])
     assert seen == {"hertz": (0, 1, 2)}
