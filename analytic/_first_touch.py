@@ -59,9 +59,9 @@ def _first_solve(layout: Layout, profile: Profile, A: float, theta: float, P_tar
 
 
 def _touch_set(profile: Profile, theta: float) -> list[tuple[float, float, float]]:
-    """The lowest local minima of ``h0 - theta x`` (within a rounding tolerance), those joined
-    by a level run merged into one interval (:func:`_merge_level_runs`).  A table end at that
-    level (:attr:`Profile.open_ends`) is refused: the contact would leave the table."""
+    """The lowest local minima of ``h0 - theta x`` (within a rounding tolerance; a level run is
+    one interval, ``Profile.local_minima``).  A table end at that level
+    (:attr:`Profile.open_ends`) is refused: the contact would leave the table."""
     mins = profile.local_minima(theta)
     ends = [(q, float(profile.h0(np.array([q]))[0] - theta * q)) for q in profile.open_ends]
     if not mins and not ends:
@@ -72,7 +72,7 @@ def _touch_set(profile: Profile, theta: float) -> list[tuple[float, float, float
     at_end = [q for q, v in ends if v <= low + tol]
     if at_end:
         raise TableEndError(_table_end_message(profile, theta, at_end, bool(mins)))
-    return _merge_level_runs(profile, theta, [m for m in mins if m[2] <= low + tol], low + tol)
+    return [m for m in mins if m[2] <= low + tol]
 
 
 def _table_end_message(profile: Profile, theta: float, at_end: list[float], interior: bool
@@ -84,24 +84,6 @@ def _table_end_message(profile: Profile, theta: float, at_end: list[float], inte
             f"(theta={theta!r}); h0 is unknown beyond, so the contact would leave the table: "
             "need a longer table (extend it so that its lowest points lie inside and h0 rises "
             "towards both ends)")
-
-
-LEVEL_SAMPLES = 9  # points (ends included) that must lie at the lowest level between two touches
-
-
-def _merge_level_runs(profile: Profile, theta: float, touches: list, level: float) -> list:
-    """Touches joined by a level run of ``h0 - theta x`` (every one of LEVEL_SAMPLES points
-    between them at ``level``) merged into one interval: a spline through equal heights is
-    level, and its minima search lists every sample (399 point minima on a level table gave as
-    many first-touch zones: the solve grew to 0.7 GB)."""
-    out = touches[:1]
-    for m in touches[1:]:
-        xs = np.linspace(out[-1][1], m[0], LEVEL_SAMPLES)
-        if np.all(profile.h0(xs) - theta * xs <= level):
-            out[-1] = (out[-1][0], m[1], min(out[-1][2], m[2]))
-        else:
-            out.append(m)
-    return out
 
 
 def _start_zone(profile: Profile, lo: float, hi: float, size: float, theta: float = 0.0

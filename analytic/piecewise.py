@@ -276,7 +276,8 @@ class Profile:
                 found.extend(_piece_minima(self, k, pc, key))
             if len(self._minima_memo) >= MINIMA_MEMO_SIZE:
                 self._minima_memo.clear()
-            self._minima_memo[key] = tuple(_dedupe_minima(found, 1e-9 * self.scale))
+            found = _dedupe_minima(found, 1e-9 * self.scale)
+            self._minima_memo[key] = tuple(_merge_level_runs(self, key, found))
         return list(self._minima_memo[key])
 
     @cached_property
@@ -420,6 +421,29 @@ def _continues_lower(prof: Profile, k: int, end: int, theta: float) -> bool:
     with np.errstate(invalid="ignore", divide="ignore"):  # an arc's vertical end: nan, kept
         outward = float(nb.dh(at)[0]) - theta  # slope of h0 - theta x, neighbour, at the joint
     return outward > 0 if end == 0 else outward < 0
+
+
+#: Points (ends included) that must lie at two neighbouring minima's level between them for
+#: the two to be one level run.
+LEVEL_SAMPLES = 9
+
+
+def _merge_level_runs(prof: Profile, theta: float, minima: list[tuple]) -> list[tuple]:
+    """Neighbouring minima (sorted by x) of one value joined by a level run of ``h0 - theta x``
+    (every one of LEVEL_SAMPLES points between them at that value, to rounding) merged into one
+    interval: a spline through equal heights is level, and the search lists every sample (a
+    level table gave 399 point minima and as many first-touch zones: the solve grew to
+    0.7 GB)."""
+    out = minima[:1]
+    for m in minima[1:]:
+        level = max(out[-1][2], m[2])
+        tol = 1e-12 * (prof.scale + abs(level))
+        xs = np.linspace(out[-1][1], m[0], LEVEL_SAMPLES)
+        if abs(m[2] - out[-1][2]) <= tol and np.all(prof.h0(xs) - theta * xs <= level + tol):
+            out[-1] = (out[-1][0], m[1], min(out[-1][2], m[2]))
+        else:
+            out.append(m)
+    return out
 
 
 def _dedupe_minima(found: list[tuple], tol: float) -> list[tuple[float, float, float]]:

@@ -174,3 +174,18 @@ def test_documented_small_load_limit_of_fig5() -> None:
     limit = 100.0 * (1.0 - np.cos(0.5 * np.pi * r) / np.cos(np.arcsin(r)))
     assert stated == round(limit, 2) == 3.66
     assert analytic.fig5_data(0.11, 0.07, loads=[1e-6]).Pe[0] == pytest.approx(limit, abs=1e-3)
+
+
+def test_level_run_is_one_minimum_for_every_caller():
+    """The level run is merged where the minima are found (Profile.local_minima, memoised), so
+    the guess, admissibility and overlap see one interval too, not one point per sample."""
+    import numpy as np
+
+    from analytic import profiles as pr
+
+    x = np.linspace(-1.0, 1.0, 41)
+    h = np.where(np.abs(x) <= 0.5, 0.0, np.abs(x) - 0.5)  # linear sides: no spline undershoot
+    level = pr.tabulated(x, h, kinks=[-0.5, 0.5])
+    assert level.local_minima() == [(-0.5, 0.5, 0.0)]  # was 400 point minima
+    twins = pr.union(pr.cylinder(R=1.0, center=-1.0), pr.cylinder(R=1.0, center=1.0))
+    assert len(twins.local_minima()) == 2  # two minima of one height, a ridge between: two
