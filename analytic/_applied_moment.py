@@ -66,6 +66,7 @@ class _Rotations:
         self.joined: set[tuple] = set()  # topologies the joint Newton started from
         self.no_guess: set[float] = set()  # rotations where Newton from the guess failed
         self.table_ends: dict[float, TableEndError] = {}  # rotations whose contact left the table
+        self.no_full: set[float] = set()  # rotations where the solve from the first touch failed
 
     def at(self, theta: float, full: bool = True) -> tuple[State, System, float] | None:
         """``(state, system, moment)`` at ``theta``, or None where the solve fails or the body
@@ -82,17 +83,27 @@ class _Rotations:
             solvers.reverse()
         try:
             found = next((r for r in (f() for f in solvers) if r is not None), None)
-            if found is None and not full:
-                return None
-            st, sys_ = found or solve_from_first_touch(self.profile, self.P, self.A, theta)
-        except TableEndError as exc:  # this rotation runs the contact off the table
-            self.table_ends[theta] = exc
-            return None
-        except ConvergenceError:
+            if found is None and (not full or theta in self.no_full):
+                return None  # the full solve depends on the rotation alone: it failed before
+            st, sys_ = found or self._full(theta)
+        except (TableEndError, ConvergenceError):  # remembered by _full when it failed there
             return None
         out = (st, sys_, sys_.load_and_moment()[1])
         self.solved[theta] = out
         return out
+
+    def _full(self, theta: float) -> tuple[State, System]:
+        """The continuation from the first touch at ``theta``; its failure is remembered
+        (``no_full``; a contact that left the table also in ``table_ends``)."""
+        try:
+            return solve_from_first_touch(self.profile, self.P, self.A, theta)
+        except TableEndError as exc:  # this rotation runs the contact off the table
+            self.table_ends[theta] = exc
+            self.no_full.add(theta)
+            raise
+        except ConvergenceError:
+            self.no_full.add(theta)
+            raise
 
     def warm(self, theta: float) -> tuple[State, System, float] | None:
         """:meth:`at` by the warm start only (Newton from the nearest solved rotations)."""
