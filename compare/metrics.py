@@ -211,6 +211,8 @@ def richardson_check(values: Sequence[float], ratio: float = 2.0, order: float |
         if f.size < 3 or not np.all(np.isfinite(f[-3:])):
             return nan, nan, "needs three finite values"
         d1, d2 = f[-3] - f[-2], f[-2] - f[-1]
+        if d1 == 0 and d2 == 0:
+            return nan, nan, "no change over the last three runs (exact, or not refined)"
         if d1 == 0 or d2 == 0 or d1 / d2 <= 0:
             return nan, nan, (f"non-monotone: successive changes {d1:.3g}, {d2:.3g} "
                               "(not in the asymptotic range)")

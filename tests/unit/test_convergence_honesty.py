@@ -241,3 +241,30 @@ def test_convergence_refuses_before_solving(monkeypatch):
         cv.convergence("hertz", levels=(1, 0))
     with pytest.raises(CaseError, match="fem.level=7 is not allowed"):
         cv.convergence("hertz", levels=(5, 7))
+
+
+def test_exact_errors_do_not_make_a_study_fail():
+    """Edges exact by construction (0 at every level, a sharp punch) are not 'not smaller at the
+    finest run': the pressure still converges, so the study does."""
+    st = study(errors(edge_error_max=[0.0] * 4, stick_edge_error_max=[0.0] * 4), [1.0] * 4)
+    assert st.converges, st.verdict()
+    assert "no change over the last three runs" in st.richardson_reason  # not "non-monotone"
+    grown = study(errors(edge_error_max=[1e-3, 2e-3, 3e-3, 4e-3]), [1.0] * 4)
+    assert not grown.converges
+
+
+@pytest.mark.parametrize("levels, ratio", [((0, 1, 2), 2.0), ((-1, 1, 3), 4.0),
+                                           ((0, 1, 2, 4), math.nan), ((0, 1, 3), math.nan)])
+def test_richardson_ratio_follows_the_levels(levels, ratio):
+    """Levels two apart quarter h: Richardson's ratio is 4, not 2; uneven last steps have none."""
+    from compare.convergence import level_ratio
+
+    assert level_ratio("h", list(levels)) == pytest.approx(ratio, nan_ok=True)
+    h = [0.04 / 2.0**lv for lv in levels]
+    b = [1.0 + 0.3 * x for x in h]  # first order: exact Richardson with the true ratio
+    st = assemble("synthetic", "h", list(levels), h, errors(len(levels)), edges(b), ZONES,
+                  ratio=level_ratio("h", list(levels)))
+    if math.isnan(ratio):
+        assert "not evenly spaced" in st.richardson_reason
+    else:
+        assert st.richardson_error == pytest.approx(0.0, abs=1e-12)
