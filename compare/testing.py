@@ -12,6 +12,7 @@ its value, its tolerance and pass/FAIL.
 from __future__ import annotations
 
 import math
+from numbers import Real
 
 from compare.run import EXACT_CHECKS, CaseResult, Check
 from compare.tolerances import METRIC_OF
@@ -20,7 +21,9 @@ from compare.tolerances import METRIC_OF
 KEYWORDS = {"edge_rtol": "edge", "stick_rtol": "stick", "pressure_rtol": "pressure",
             "shear_rtol": "shear", "load_share_atol": "load_share", "moment_atol": "moment",
             "rotation_rtol": "rotation", "uncoupling_rtol": "uncoupling",
-            "jc_rtol": "jaeger_ciavarella"}
+            "jc_rtol": "jaeger_ciavarella", "stress_rtol": "stress",
+            "surface_peak_rtol": "surface_peak",
+            "surface_peak_location_rtol": "surface_peak_location"}
 
 
 class DisagreementError(AssertionError):
@@ -41,12 +44,9 @@ def format_checks(checks, title: str = "") -> str:
 
 
 def _tolerance(key: str, value) -> float:
-    """A tolerance keyword's value as a float; ValueError naming it unless a number >= 0 (inf:
-    no bound)."""
-    try:
-        tol = float(value)
-    except (TypeError, ValueError):
-        tol = math.nan
+    """A tolerance keyword's value as a float; ValueError naming it unless a real number >= 0
+    (inf: no bound; not a bool, not a string holding a number)."""
+    tol = float(value) if isinstance(value, Real) else math.nan
     if isinstance(value, bool) or not tol >= 0:
         raise ValueError(f"assert_agrees: {key}={value!r} is not allowed: need a number >= 0 "
                          "(inf: no bound)")
@@ -58,7 +58,8 @@ def assert_agrees(result: CaseResult, **tolerances: float) -> None:
 
     Keywords (all optional, override the case's named tolerances): ``edge_rtol``,
     ``stick_rtol``, ``pressure_rtol``, ``shear_rtol``, ``load_share_atol``, ``moment_atol``,
-    ``rotation_rtol``, ``uncoupling_rtol``, ``jc_rtol``.  The zone-count and full-slip counts must
+    ``rotation_rtol``, ``uncoupling_rtol``, ``jc_rtol``, ``stress_rtol``, ``surface_peak_rtol``,
+    ``surface_peak_location_rtol``.  The zone-count and full-slip counts must
     be zero.  NaN metrics (not applicable) pass, except a metric the caller gave a tolerance
     for that the result cannot give (``result.unavailable``, external results): that fails.
     Raises :class:`DisagreementError`.

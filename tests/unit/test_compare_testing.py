@@ -45,7 +45,7 @@ def test_unknown_keyword():
 
 
 
-@pytest.mark.parametrize("value", ["abc", None, float("nan"), -0.01, True, [0.1]])
+@pytest.mark.parametrize("value", ["abc", "0.1", None, float("nan"), -0.01, True, [0.1]])
 def test_bad_tolerance_value_named(value):
     """A tolerance that is no number >= 0 (a NaN one failed every check without saying why, a
     string raised float()'s bare ValueError): one error naming the keyword and the value."""
@@ -75,3 +75,11 @@ def test_check_table_columns_align_on_long_names():
         ends = {ln.index(r[k], ln.index(r[0]) + len(r[0])) + len(r[k])
                 for ln, r in zip(lines, rows, strict=True)}
         assert len(ends) == 1, "\n".join(lines)
+
+
+def test_stress_tolerances_can_be_overridden():
+    """The stress checks have keywords too (they were checked but could not be overridden)."""
+    res = fake(stress_l2_error=0.05, surface_peak_error=0.3, surface_peak_location_error=0.2)
+    with pytest.raises(DisagreementError, match="stress"):
+        assert_agrees(res)
+    assert_agrees(res, stress_rtol=0.06, surface_peak_rtol=0.4, surface_peak_location_rtol=0.25)
