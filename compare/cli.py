@@ -321,10 +321,12 @@ def _check_converge_options(args) -> None:
 
 
 def cmd_converge(args) -> int:
-    from compare.convergence import DEFAULT_LEVELS, convergence, convergence_text
+    from compare.convergence import DEFAULT_LEVELS, convergence, convergence_text, study_values
 
     _check_converge_options(args)
     levels = DEFAULT_LEVELS if args.levels is None else args.levels
+    study_values(args.kind, levels, args.values,  # refused by the option's name, before a run
+                 label="--levels" if args.kind == "h" else "--values")
     case = _case(args, args.case)
     with _progress() as prog:
         n = len(levels) if args.kind == "h" else len(args.values or (0, 0, 0))
@@ -373,7 +375,8 @@ def _report_inputs(args) -> tuple[list, dict]:
     if args.levels and not studied:
         _refuse("--levels sets the levels of the convergence studies, and --convergence without "
                 "a case asks for none: name a case after --convergence or leave --levels out")
-    conv = {n: tuple(study_values("h", args.levels or DEFAULT_STUDY_LEVELS)) for n in studied}
+    levels = study_values("h", args.levels or DEFAULT_STUDY_LEVELS, label="--levels")
+    conv = {n: tuple(levels) for n in studied}
     return cases, conv
 
 
@@ -387,7 +390,7 @@ def cmd_report(args) -> int:
                    + [f"the convergence study of {n}" for n in conv]
                    + ([] if args.no_fig5 else ["the Fig. 5 study"]))
     studies = f"{len(conv)} convergence stud{'y' if len(conv) == 1 else 'ies'}"
-    print(f"multicontact report: {len(cases)} cases, {studies}"
+    print(f"multicontact report: {len(cases)} case{'' if len(cases) == 1 else 's'}, {studies}"
           f"{'' if args.no_fig5 else ', the Fig. 5 study'} into {out} (a case takes 5-40 s; "
           "two run at a time)", file=sys.stderr, flush=True)
     try:

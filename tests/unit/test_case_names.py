@@ -185,5 +185,5 @@ def test_report_cli_plans_the_whole_folder_before_its_banner(tmp_path, capsys):
             "--convergence"]
     assert main(argv) == 2
     err = capsys.readouterr().err
-    assert "vtk/c" in err and "multicontact report: 1 cases" not in err
+    assert "vtk/c" in err and "multicontact report: 1 case" not in err
     assert (out / "vtk" / "c").read_text() == "a user's file"

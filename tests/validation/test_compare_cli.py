@@ -85,11 +85,11 @@ def test_plain_numbers_round_off_and_version(capsys):
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["converge", "hertz", "--levels", "0"], "levels=0 is not allowed for an h-study"),
-    (["converge", "hertz", "--levels", "1", "0"], "levels=1 0 is not allowed"),
-    (["converge", "hertz", "--kind", "domain", "--values", "12", "6"], "values=12 6 is not"),
-    (["report", "-o", "REP", "--levels", "1", "0"], "levels=1 0 is not allowed"),
-    (["report", "-o", "REP", "--convergence", "hertz", "--levels", "0"], "levels=0 is not"),
+    (["converge", "hertz", "--levels", "0"], "--levels 0 is not allowed for an h-study"),
+    (["converge", "hertz", "--levels", "1", "0"], "--levels 1 0 is not allowed"),
+    (["converge", "hertz", "--kind", "domain", "--values", "12", "6"], "--values 12 6 is not"),
+    (["report", "-o", "REP", "--levels", "1", "0"], "--levels 1 0 is not allowed"),
+    (["report", "-o", "REP", "--convergence", "hertz", "--levels", "0"], "--levels 0 is not"),
     (["report", "-o", "afile/REP"], "cannot write in"),
 ])
 def test_study_and_output_refused_before_any_run(tmp_path, capsys, monkeypatch, argv, words):
