@@ -268,3 +268,15 @@ def test_richardson_ratio_follows_the_levels(levels, ratio):
         assert "not evenly spaced" in st.richardson_reason
     else:
         assert st.richardson_error == pytest.approx(0.0, abs=1e-12)
+
+
+def test_domain_study_goes_by_how_far_the_edges_move():
+    """With the half-plane far field the errors do not depend on the body size (they are the
+    mesh's): a domain study is judged like a penalty study, by the edges' shift."""
+    flat = {m: [1e-3] * 3 for m in TRACKED}
+    st = assemble("synthetic", "domain", [6.0, 12.0, 25.0], [1 / 6, 1 / 12, 1 / 25], flat,
+                  edges([1.0 + 1.2e-6, 1.0, 1.0]), ZONES)
+    assert st.converges and "over the body-size range" in st.verdict()
+    moved = assemble("synthetic", "domain", [6.0, 25.0], [1 / 6, 1 / 25],
+                     {m: [1e-3] * 2 for m in TRACKED}, edges([1.002, 1.0]), ZONES)
+    assert not moved.converges and "move by 1.00e-03" in moved.verdict()
