@@ -304,7 +304,8 @@ def sequence_figure(seq: SequenceVerification, reference: ConvergenceStudy | Non
     runs = [(f"{seq.code} (verified sequence)", seq.h, seq.study, "o-")]
     if reference is not None:
         levels = ", ".join(f"{v:g}" for v in reference.values)
-        runs.append((f"multicontact fem (levels {levels})", reference.parameter, reference, "s--"))
+        runs.append((f"multicontact fem (levels {levels}; at the case's samples)",
+                     reference.parameter, reference, "s--"))
     for ax, m in zip(axes.flat, TRACKED, strict=True):
         orders = []
         for name, h, st, style in runs:
@@ -338,7 +339,11 @@ def _html(seq: SequenceVerification, reference: ConvergenceStudy | None) -> str:
                    for s, h in zip(seq.sources, seq.h, strict=True))
     ours = (f"<p>Our own FE (multicontact fem, levels "
             f"{', '.join(str(v) for v in reference.values)}): "
-            f"{html.escape(reference.verdict())}.</p>" if reference else "")
+            f"{html.escape(reference.verdict())}. Its stick-edge and shear errors are taken at "
+            "the case's sampled Q; the sequence's at the samples verify was given (every "
+            "stage-2/3 step by default, a stricter set: the same FE then shows larger errors): "
+            "give <code>--samples case</code> to compare like with like.</p>"
+            if reference else "")
     body = (f"<h1>{html.escape(seq.case_name)}: mesh sequence of {html.escape(seq.code)}</h1>"
             f"<p><b>{html.escape(seq.verdict())}</b></p><ol>{srcs}</ol>"
             f"<table><tr><th class='l'>metric \\ h</th>"
