@@ -41,8 +41,9 @@ level 4 within 10 %), so the error falls, crosses zero and rises before it falls
 (3.3e-4, 1.3e-5, 3.5e-5, 2.8e-5, 1.45e-5, 7.4e-6 at levels 0-5; local orders 0.93, 0.97 from
 level 3): a crossing, not a floor.  The grading's part is plain Q1's stiffness: with the
 incompatible modes of the default elements it is 0.39x as large and the crossing moves to
-levels 3-4, below 2e-6 of the width (-2.77e-3, -7.13e-4, -2.02e-4, -5.56e-5, -1.99e-6,
--1.49e-6 at levels -1 to 4; fem.settings.DEFAULT_LAYOUT).  The study prints the signed edge
+levels 3-4, below 2e-6 of the width (edge offsets, + where the FE zone is wider, as the study
+prints them: +2.77e-3, +7.13e-4, +2.02e-4, +5.56e-5, +1.99e-6, +1.49e-6 at levels -1 to 4;
+fem.settings.DEFAULT_LAYOUT).  The study prints the signed edge
 offset per run and names a sign change (:meth:`ConvergenceStudy.offset_crossings`).
 
 Honesty: besides the least-squares orders the study reports the local order and the ratio of

@@ -43,9 +43,10 @@ SIZE_FACTOR = 8.0
 #: keeps (b) below (a) at every level (1 + 0.1 2^-(level+1)) costs 6.5k / 19.8k / 60k / 200k DOFs
 #: at levels -1..2 against the tensor's 1.9k / 6.3k / 26.5k / 125k.  With the modes (b) is 0.39x as
 #: large (level 0) and overtakes (a) only between levels 3 and 4, below 2e-6 of the width:
-#: phase-locked -2.77e-3 / -7.13e-4 / -2.02e-4 / -5.56e-5 / -1.99e-6 / -1.49e-6 at levels -1..4,
-#: free -2.27e-3 / -9.18e-4 / -9.69e-5 at -1..1.  The tensor mesh of plain Q1 (the default before)
-#: crosses too (phase-locked +1.0e-3 / +1.2e-4 / -4.3e-5 / -2.6e-5 at levels -1..2); its free
+#: edge offsets (+ where the FE zone is wider, as `converge` prints them) phase-locked +2.77e-3 /
+#: +7.13e-4 / +2.02e-4 / +5.56e-5 / +1.99e-6 / +1.49e-6 at levels -1..4, free +2.27e-3 /
+#: +9.18e-4 / +9.69e-5 at -1..1.  The tensor mesh of plain Q1 (the default before) crosses too
+#: (phase-locked -1.0e-3 / -1.2e-4 / +4.3e-5 / +2.6e-5 at levels -1..2); its free
 #: study stayed on one side by its level-1 phase error.  Cost: at the library's level 1 the rings
 #: with the modes give cattaneo edge / stick 9.7e-5 / 2.6e-4 of the width with 25.0k DOFs, the
 #: plain tensor 1.1e-4 / 5.8e-4 with 26.5k; from level 2 the rings need half the DOFs or fewer,
