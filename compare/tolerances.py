@@ -16,19 +16,22 @@ from __future__ import annotations
 from types import MappingProxyType
 
 #: Contact edge error / zone width: the FE edge is within ~0.05-0.15 element of the analytic one
-#: (sqrt-fit estimator, fem.results) and falls at order ~1: Hertz 0.029/0.011/0.0012 % at levels
-#: 0/1/2 (bench_fem); library at default levels <= 0.089 % (double_wedge_a); 0.5 % leaves room for
-#: unseen cases (the estimator's ~0.15 element is 0.3 % of a zone 48 elements wide at level 0).
+#: (sqrt-fit estimator, fem.results) and falls at order ~1: Hertz 0.092/0.0097/0.0059 % at
+#: levels 0/1/2 (`converge hertz`, default ring mesh, 2026-11-27); library at default levels
+#: <= 0.089 % (double_wedge_a); 0.5 % leaves room for unseen cases (the estimator's ~0.15
+#: element is 0.3 % of a zone 48 elements wide at level 0).
 EDGE_RTOL = 0.005
 #: Stick edge error / contact zone width: the zero of (mu p - s q)**2 is located as well as a
 #: contact edge where the stick zone is wide; narrow slip zones next to a frozen stage-2 stick
-#: edge cost up to ~0.5 element: Cattaneo 0.28/0.058/0.027 % at levels 0/1/2 (bench_fem), library
-#: <= 0.80 % (biquadratic_separate; three_cylinders 0.58 %, punch_and_cylinder 0.60 %).
+#: edge cost up to ~0.5 element: Cattaneo 0.37/0.026/0.015 % at levels 0/1/2 (`converge
+#: cattaneo`, 2026-11-27), library <= 0.80 % (biquadratic_separate; three_cylinders 0.58 %,
+#: punch_and_cylinder 0.60 %).
 STICK_RTOL = 0.01
 #: Relative L2 pressure error away from singular points: order ~1 (the sqrt edges and the
-#: node-wise penalty traction, see compare.convergence.EXPECTED_ORDERS): Hertz 0.62/0.25/0.12 % at
-#: levels 0/1/2; library <= 1.19 % (punch_cylinder_moment; sharp_punch 3.3/1.9/0.9 % at levels
-#: 0/1/2, hence its level 2: the 1/sqrt corners next to the excluded nodes).
+#: node-wise penalty traction, see compare.convergence.EXPECTED_ORDERS): Hertz 0.32/0.17/0.105 %
+#: at levels 0/1/2 (2026-11-27); library <= 1.19 % (punch_cylinder_moment; sharp_punch
+#: 3.3/1.9/0.9 % at levels 0/1/2, hence its level 2: the 1/sqrt corners next to the excluded
+#: nodes).
 PRESSURE_RTOL = 0.02
 #: L2 shear error in units of the Coulomb bound, ||q_fe - q_an|| / (mu ||p||) (compare.run): kinks
 #: at the stick edges and sqrt slip ends, order ~1, nearly the same at every load ratio
