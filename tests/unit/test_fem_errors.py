@@ -73,3 +73,18 @@ def test_at_unknown_q_lists_available():
     h = run(mesh=fem.MeshSpec(level=-1))
     with pytest.raises(fem.InputError, match="available"):
         h.at(2, Q=np.pi)
+
+
+def test_a_contact_far_from_the_origin_solves_like_one_at_it():
+    """skfem's facet basis inverts its mapping with an absolute tolerance that the rounding of x
+    failed at |x| / h > ~4000 (a contact at x = 10, level 1: a bare skfem Exception); the
+    interface weights are now computed on the mesh centred on the interface."""
+    def zone(c: float):
+        h = fem.solve_history(lambda x: hertz(x - c), 0.01, 0.0, 0.5, 1.0, 0.3,
+                              window=(c - 2.0, c + 2.0), mesh=fem.MeshSpec(level=1),
+                              increments=fem.LoadPath(n_normal=1, n_tangential=1))
+        (a, b), = h.stage(1)[-1].contact_zones
+        return a - c, b - c
+
+    near, far = zone(0.0), zone(5000.0)
+    assert far == pytest.approx(near, abs=1e-9)
