@@ -46,10 +46,12 @@ def real(name: str, value: object, need: str = "a finite number",
 
 
 def integer(name: str, value: object, low: int, high: int | None = None) -> int:
-    """An integer in ``[low, high]``."""
+    """An integer (Python or numpy; not a float such as 2.0, which the solver's ``range`` and
+    array shapes refuse later with a bare TypeError) in ``[low, high]``."""
     need = f"an integer >= {low}" if high is None else f"an integer {low} <= {name} <= {high}"
-    x = real(name, value, need, lambda v: v == int(v) and v >= low and (high is None or v <= high))
-    return int(x)
+    if not isinstance(value, numbers.Integral) or isinstance(value, (bool, np.bool_)):
+        raise refuse(name, value, need)
+    return int(real(name, value, need, lambda v: v >= low and (high is None or v <= high)))
 
 
 def _optional_positive(name: str, value: object) -> None:

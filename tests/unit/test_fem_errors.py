@@ -37,6 +37,11 @@ def run(**kw):
         (dict(h0=lambda x: x - 10.0), "h0"),
         (dict(increments=fem.LoadPath(stage2=(0.001,))), "stage2"),
         (dict(mesh="/nonexistent/mesh.msh"), "does not exist"),
+        # counts as floats passed the check and crashed in range() with a bare TypeError
+        (dict(increments=fem.LoadPath(n_normal=2.0)), r"n_normal=2.0 is not allowed: need an "
+                                                      "integer"),
+        (dict(contact=fem.ContactSettings(max_cutbacks=2.0)), "max_cutbacks=2.0"),
+        (dict(mesh=fem.MeshSpec(level=1.0)), "level=1.0"),
     ],
 )
 def test_bad_input_is_one_clear_error(kw, match):
