@@ -345,7 +345,11 @@ def advance(
 ) -> ContactState:
     """Reach ``target`` from ``old``, halving the step on failure (up to max_cutbacks times;
     ``before``: the converged state before ``old``, for the secant predictor of
-    :func:`fem.contact.solve_increment`)."""
+    :func:`fem.contact.solve_increment`).  A step of zero length (``target`` the load reached,
+    e.g. a stage 3 listed from Q0) keeps the state: solving it found no slip direction and the
+    active set cycled through every cut-back."""
+    if target == old.load:
+        return replace(old, iterations=0)
     n_sub, last = 1, ""
     for _ in range(contact.max_cutbacks + 1):
         state, prev, its = old, before, 0

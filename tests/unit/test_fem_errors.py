@@ -93,3 +93,13 @@ def test_a_contact_far_from_the_origin_solves_like_one_at_it():
 
     near, far = zone(0.0), zone(5000.0)
     assert far == pytest.approx(near, abs=1e-9)
+
+
+def test_a_step_of_zero_length_keeps_the_state():
+    """A stage 3 listed from Q0 (np.linspace(Q0, -Q0, n)) failed after 256 cut-backs ("active set
+    cycles"): a step to the load already reached keeps the converged state."""
+    h = run(Q0=0.004, increments=fem.LoadPath(n_normal=2, stage2=(0.002, 0.004),
+                                              stage3=(0.004, 0.0, -0.004)))
+    end2, start3 = h.stage(2)[-1], h.stage(3)[0]
+    assert start3.Q == end2.Q and start3.stick_zones == end2.stick_zones
+    assert np.array_equal(start3.interface.q, end2.interface.q)
