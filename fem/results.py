@@ -668,8 +668,24 @@ def stick_edge_estimate(x, p, q, mu: float, run: tuple[int, int], step: int
     end = run[1] if step > 0 else run[0]
     s = np.sign(q[end + step]) or np.sign(q[end]) or 1.0
     f = np.maximum(mu * p - s * q, 0.0)
-    return edge_estimate(x, f, _stick_run(f, p, run, step), step, scale=mu * p,
-                         trust=BAND_TRUST, to_peak=True)
+    stick = _stick_run(f, p, run, step)
+    if stick[1] - stick[0] + 1 < MIN_STICK_FIT:
+        return _between_nodes(x, stick[1] if step > 0 else stick[0], step)
+    return edge_estimate(x, f, stick, step, scale=mu * p, trust=BAND_TRUST, to_peak=True)
+
+
+#: A stick run of fewer nodes holds no shape of mu p - s q to fit: its edge lies somewhere
+#: between its end node and the next (a two-node stick zone at Q = 0.999 mu P: the fit of two
+#: equal values put one edge on the slip node, the other half-way, by the sign of round-off,
+#: with an uncertainty of 3e9 lengths).
+MIN_STICK_FIT = 3
+
+
+def _between_nodes(x: np.ndarray, end: int, step: int) -> tuple[float, float]:
+    """(the middle between the run's end node and the next one out, half their distance): an
+    edge known only to lie between the two."""
+    lo, hi = sorted((float(x[end]), float(x[end + step])))
+    return 0.5 * (lo + hi), 0.5 * (hi - lo)
 
 
 #: A node flagged slip next to a stick run still belongs to it when mu p - s q there exceeds

@@ -243,3 +243,26 @@ def test_stick_flags_at_the_cone_are_slip():
     assert sticks == (None,)
     _, sticks = contact_and_stick(x, p, q * (1 - 1e-6), status, np.ones(x.size, bool), mu)
     assert sticks != (None,)
+
+
+def test_two_node_stick_zone_is_symmetric_with_an_element_of_uncertainty():
+    """At Q = 0.999 mu P our FE left two stick nodes; the fit of two equal values put one edge on
+    the slip node and the other half-way (by the sign of round-off), uncertainty 3e9 lengths. A
+    stick run too short to fit (MIN_STICK_FIT) has its edge between its end node and the next."""
+    from fem.results import zones_with_uncertainty
+
+    x = uniform(160)  # nodes at +-h/2, none at 0: the two stick nodes sit symmetrically
+    h, mu = x[1] - x[0], 0.3
+    p = np.sqrt(np.clip(0.6 ** 2 - x * x, 0.0, None))
+    status = np.where(p > 0, SLIP, OPEN).astype(np.int8)
+    mid = np.argsort(np.abs(x))[:2]
+    status[mid] = STICK
+    q = mu * p
+    q[mid] *= 0.9
+    q[mid.min() - 1] *= 1 + 2e-16  # round-off of opposite signs either side
+    q[mid.max() + 1] *= 1 - 2e-16
+    _, sticks, _, unc = zones_with_uncertainty(x, p, q, status, np.ones(x.size, bool), mu)
+    (c, d), (uc, ud) = sticks[0], unc[0]
+    assert c == pytest.approx(-d, abs=1e-12 * h)
+    assert uc == pytest.approx(0.5 * h) and ud == pytest.approx(0.5 * h)
+    assert x[mid.min() - 1] < c < x[mid.min()] and x[mid.max()] < d < x[mid.max() + 1]
