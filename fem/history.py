@@ -422,17 +422,30 @@ def assemble_bodies(
     return tbm, order, disc
 
 
-def solve_increments(
-    prob: InterfaceProblem, schedule, contact: ContactSettings, M, h: float, timings: dict,
-    mesh_file: Path | None = None,
-) -> list:
-    """Converged states of all scheduled increments (timed as 'increments'); the contact
-    zones at the end of stage 1 must be resolved (:func:`check_zone_size`)."""
+def solve_increments(prob: InterfaceProblem, schedule, contact: ContactSettings, M,
+                     timings: dict) -> list:
+    """Converged states of all scheduled increments (timed as 'increments')."""
     with timed(timings, "increments"):
-        states = run_increments(prob, schedule, contact, M)
-    stage1_end = max(i for i, s in enumerate(schedule) if s[0] == 1)
-    check_zone_size(prob, states[stage1_end], h, mesh_file)
-    return states
+        return run_increments(prob, schedule, contact, M)
+
+
+def check_stage1_end(model: Model, state: ContactState, h: float,
+                     mesh_file: Path | None) -> None:
+    """The contact at full normal load must lie inside the candidate nodes (a run reaching
+    their end where h0 goes on beyond: the window misses the contact or is too small; at a
+    corner h0 = inf ends the candidates, and the contact may reach it) and be resolved
+    (:func:`check_zone_size`)."""
+    x_all, cand = model.disc.interface.x, model.cand
+    for i0, i1 in runs(state.status > 0):
+        for end, beyond in ((i0, cand[i0] - 1), (i1, cand[i1] + 1)):
+            if 0 <= beyond < x_all.size and np.isfinite(model.h0_all[beyond]) and \
+                    end in (0, cand.size - 1):
+                raise InputError(
+                    f"window too small or misplaced: the contact at P0 reaches the end of the "
+                    f"contact candidates at x={model.prob.x[end]:g}, where h0 goes on (the "
+                    f"window gives the candidates); pass a window around the contact (the "
+                    f"expected zone, with a margin)")
+    check_zone_size(model.prob, state, h, mesh_file)
 
 
 def without_compliance(model: Model) -> Model:
@@ -505,8 +518,9 @@ def solve_history(
         model = build_model(disc, bulk, h0, mu, window, settings, M is None, backend, timings)
         del bulk
         return_freed_memory()  # the factorisation's temporaries
-        states = solve_increments(model.prob, schedule, settings, M, tbm.h_min, timings,
-                                  mesh_path(mesh))
+        states = solve_increments(model.prob, schedule, settings, M, timings)
+        stage1_end = max(i for i, step in enumerate(schedule) if step[0] == 1)
+        check_stage1_end(model, states[stage1_end], tbm.h_min, mesh_path(mesh))
         model = without_compliance(model)
         return_freed_memory()  # the compliance and the contact solver's matrices
         with timed(timings, "recovery"):

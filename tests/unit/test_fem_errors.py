@@ -103,3 +103,12 @@ def test_a_step_of_zero_length_keeps_the_state():
     end2, start3 = h.stage(2)[-1], h.stage(3)[0]
     assert start3.Q == end2.Q and start3.stick_zones == end2.stick_zones
     assert np.array_equal(start3.interface.q, end2.interface.q)
+
+
+@pytest.mark.parametrize("window", [(10.0, 12.0), (500.0, 501.0)])
+def test_a_window_that_misses_the_contact_says_so(window):
+    """It said "mesh too coarse ... raise MeshSpec.level or narrow the window" (a zone of one
+    node at the window's end), or "h0 is infinite at (nearly) all interface nodes"."""
+    with pytest.raises(fem.InputError, match="window too small or misplaced: the contact at P0 "
+                                             "reaches the end of the contact candidates"):
+        run(window=window, mesh=fem.MeshSpec(level=-1))
