@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import math
 import numbers
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -21,6 +22,9 @@ from .errors import InputError
 from .settings import ContactSettings, LoadPath, MeshFile, MeshSpec
 
 BACKENDS = ("auto", "cholmod", "pypardiso", "scipy-splu")
+#: Halvings of one increment at most: 2**20 sub-increments of one load step; max_cutbacks=100
+#: would try up to 2**100 before it gave up (the default, 8, is 256).
+MAX_CUTBACKS = 20
 
 
 def refuse(name: str, value: object, need: str) -> InputError:
@@ -90,6 +94,8 @@ def check_settings(h0, mesh, contact, increments, kinks, window, vtk_dir, backen
         _windows(window)
     if not (vtk_dir is None or isinstance(vtk_dir, (str, Path))):
         raise refuse("vtk_dir", vtk_dir, "None or a directory path")
+    if vtk_dir is not None:
+        _writable_dir(Path(vtk_dir))
     if not isinstance(backend, str) or backend not in BACKENDS:
         raise refuse("backend", backend, "one of " + ", ".join(map(repr, BACKENDS)))
 
@@ -151,7 +157,20 @@ def check_contact(c: ContactSettings) -> None:
     integer("max_uzawa", c.max_uzawa, 1)
     real("newton_tol", c.newton_tol, "0 < newton_tol < 1", lambda v: 0 < v < 1)
     integer("max_newton", c.max_newton, 1)
-    integer("max_cutbacks", c.max_cutbacks, 0)
+    integer("max_cutbacks", c.max_cutbacks, 0, MAX_CUTBACKS)
+
+
+def _writable_dir(path: Path) -> None:
+    """Refuse a ``vtk_dir`` that is a file, or whose nearest existing folder cannot be written
+    (before the solve: the series is written after it)."""
+    if path.exists() and not path.is_dir():
+        raise refuse("vtk_dir", str(path), "a directory path (this is an existing file)")
+    parent = path
+    while not parent.exists():
+        parent = parent.parent
+    if not (parent.is_dir() and os.access(parent, os.W_OK | os.X_OK)):
+        raise refuse("vtk_dir", str(path), f"a directory that can be created or written ({parent} "
+                     "cannot be written)")
 
 
 def check_load_path(path: LoadPath) -> None:

@@ -192,10 +192,15 @@ def resolve_contact(contact: ContactSettings | None, E: float, h: float) -> Cont
 
 
 def gap_at(h0: Callable, x: np.ndarray) -> np.ndarray:
-    """Evaluate the user gap function and check it (finite or +inf, >= 0)."""
-    g = np.asarray(h0(np.asarray(x, float)), dtype=float)
-    if g.shape != x.shape:
-        g = np.broadcast_to(g, x.shape).astype(float)
+    """Evaluate the user gap function and check it (real numbers of x's shape, or one number;
+    finite or +inf, >= 0)."""
+    raw = np.asarray(h0(np.asarray(x, float)))
+    if raw.dtype.kind not in "biuf" or raw.size not in (1, x.size):
+        raise InputError(f"h0 returned {_what(raw)} for {x.size} points; need one real gap per "
+                         "point (an array of x's shape), h0 >= 0 or +inf where contact is "
+                         "impossible")
+    g = np.broadcast_to(raw.astype(float).reshape(-1) if raw.size == x.size else raw.astype(float),
+                        x.shape).astype(float)
     bad = np.isnan(g) | (
         g < -1e-12 * max(1.0, float(np.max(np.abs(g[np.isfinite(g)]), initial=1.0)))
     )
@@ -206,6 +211,13 @@ def gap_at(h0: Callable, x: np.ndarray) -> np.ndarray:
             "contact is impossible)"
         )
     return np.maximum(g, 0.0)
+
+
+def _what(a: np.ndarray) -> str:
+    """A user function's result in words (for an error message)."""
+    if a.dtype == object and a.size == 1 and a.reshape(-1)[0] is None:
+        return "None"
+    return f"an array of {a.size} {a.dtype} value(s)"
 
 
 def add_far_field(C: np.ndarray, D: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -17,7 +17,8 @@ def run(**kw):
     args = dict(h0=hertz, P0=0.01, Q0=0.002, mu=0.5, E=1.0, nu=0.3)
     args.update(kw)
     h0 = args.pop("h0")
-    opts = {k: args.pop(k) for k in ("window", "mesh", "increments", "contact") if k in args}
+    keys = ("window", "mesh", "increments", "contact", "vtk_dir")
+    opts = {k: args.pop(k) for k in keys if k in args}
     opts.setdefault("window", (-2.0, 2.0))
     opts.setdefault("increments", fem.LoadPath(n_normal=2, n_tangential=1))
     return fem.solve_history(h0, args["P0"], args["Q0"], args["mu"], args["E"], args["nu"], **opts)
@@ -42,6 +43,11 @@ def run(**kw):
                                                       "integer"),
         (dict(contact=fem.ContactSettings(max_cutbacks=2.0)), "max_cutbacks=2.0"),
         (dict(mesh=fem.MeshSpec(level=1.0)), "level=1.0"),
+        # a user's h0 of the wrong shape or kind (numpy's broadcast error, float(None), or the
+        # imaginary part dropped with a warning)
+        (dict(h0=lambda x: np.zeros(3)), r"h0 returned an array of 3 float64 value\(s\) for"),
+        (dict(h0=lambda x: None), "h0 returned None for"),
+        (dict(h0=lambda x: hertz(x) + 0j), "complex128"),
     ],
 )
 def test_bad_input_is_one_clear_error(kw, match):
@@ -112,3 +118,18 @@ def test_a_window_that_misses_the_contact_says_so(window):
     with pytest.raises(fem.InputError, match="window too small or misplaced: the contact at P0 "
                                              "reaches the end of the contact candidates"):
         run(window=window, mesh=fem.MeshSpec(level=-1))
+
+
+def test_vtk_dir_that_is_a_file_is_refused_before_the_solve(tmp_path):
+    """A vtk_dir that is a file raised FileExistsError after the whole solve."""
+    f = tmp_path / "afile"
+    f.write_text("x")
+    with pytest.raises(fem.InputError, match="vtk_dir=.* is not allowed: need a directory path "
+                                             r"\(this is an existing file\)"):
+        run(vtk_dir=f, contact=fem.ContactSettings(max_newton=1, max_cutbacks=0))
+
+
+def test_max_cutbacks_is_bounded():
+    with pytest.raises(fem.InputError, match="max_cutbacks=100 is not allowed: need an integer 0 "
+                                             "<= max_cutbacks <= 20"):
+        run(contact=fem.ContactSettings(max_cutbacks=100))
