@@ -118,10 +118,24 @@ def spec_cells(spec: MeshSpec) -> float:
     return spec.n_window * 2.0**spec.level
 
 
+#: Two kinks (or a kink and a fine region's end) closer than this fraction of the element size
+#: make an element too thin to solve: at h = 0.17, kinks 1e-6 apart (6e-6 h) failed the
+#: equilibrium check as a solver error (1e-12 apart too), 1e-4 apart (6e-4 h) solved.
+KINK_MIN_GAP = 1e-4
+
+
 def uniform_axis(xl: float, xr: float, h: float, kinks) -> np.ndarray:
     """Nodes of size <= h on [xl, xr] (both ends included) with a node on every kink inside."""
     inner = [k for k in sorted(set(float(k) for k in kinks)) if xl < k < xr]
     breaks = [xl, *inner, xr]
+    close = [(a, b) for a, b in zip(breaks[:-1], breaks[1:], strict=True)
+             if b - a < KINK_MIN_GAP * h]
+    if close:
+        a, b = close[0]
+        raise InputError(f"kinks={list(kinks)} is not allowed: need kinks at least "
+                         f"{KINK_MIN_GAP:g} of the element size h={h:g} apart from each other and "
+                         f"from the fine region's ends (x={a!r} and x={b!r} are {b - a:.3g} "
+                         "apart: an element that thin is degenerate); give them as one kink")
     fine = [
         np.linspace(a, b, max(1, int(np.ceil((b - a) / h - 1e-9))) + 1)[:-1]
         for a, b in zip(breaks[:-1], breaks[1:], strict=True)
@@ -175,12 +189,17 @@ def window_axis(windows, kinks, spec: MeshSpec, W: float) -> np.ndarray:
 
 
 def snap_kinks(x: np.ndarray, kinks) -> np.ndarray:
-    """Move the nearest interior node onto each kink outside the fine region."""
-    x = x.copy()
-    for k in kinks:
-        if x[0] < k < x[-1]:
-            i = int(np.clip(np.argmin(np.abs(x - k)), 1, x.size - 2))
-            x[i] = k
+    """Move the nearest interior node onto each kink outside the fine region (a kink beyond the
+    bodies has no node to take: the profile's corner is outside the model; two kinks sharing
+    their nearest node are refused: one would not get its node)."""
+    x, taken = x.copy(), {}
+    for k in sorted(float(v) for v in kinks if x[0] < v < x[-1]):
+        i = int(np.clip(np.argmin(np.abs(x - k)), 1, x.size - 2))
+        if i in taken:
+            raise InputError(f"kinks={list(kinks)} is not allowed: x={taken[i]!r} and x={k!r} "
+                             f"share their nearest node (elements of {x[i + 1] - x[i - 1]:.3g} "
+                             "there): give them as one kink, or a window holding both")
+        taken[i], x[i] = k, k
     if np.any(np.diff(x) <= 0):
         raise InputError(f"kinks={list(kinks)} could not be placed on mesh nodes: refine the mesh")
     return x

@@ -17,7 +17,7 @@ def run(**kw):
     args = dict(h0=hertz, P0=0.01, Q0=0.002, mu=0.5, E=1.0, nu=0.3)
     args.update(kw)
     h0 = args.pop("h0")
-    keys = ("window", "mesh", "increments", "contact", "vtk_dir")
+    keys = ("window", "mesh", "increments", "contact", "vtk_dir", "kinks")
     opts = {k: args.pop(k) for k in keys if k in args}
     opts.setdefault("window", (-2.0, 2.0))
     opts.setdefault("increments", fem.LoadPath(n_normal=2, n_tangential=1))
@@ -133,3 +133,26 @@ def test_max_cutbacks_is_bounded():
     with pytest.raises(fem.InputError, match="max_cutbacks=100 is not allowed: need an integer 0 "
                                              "<= max_cutbacks <= 20"):
         run(contact=fem.ContactSettings(max_cutbacks=100))
+
+
+@pytest.mark.parametrize("kinks, words", [
+    ((0.01, 0.01 + 1e-12), "apart from each other and from the fine region's ends"),
+    ((0.5, 0.5 + 1e-9), "give them as one kink"),
+])
+def test_kinks_too_close_are_one_clear_error(kinks, words):
+    """Kinks 1e-12 apart made a degenerate element: the equilibrium check then failed as a
+    ConvergenceError (a solver failure) instead of an input error."""
+    with pytest.raises(fem.InputError, match=words):
+        run(kinks=kinks, mesh=fem.MeshSpec(level=-1))
+
+
+def test_two_kinks_sharing_a_coarse_node_are_refused():
+    """Outside the fine region a kink takes its nearest node; a second kink on the same node
+    moved it away from the first silently."""
+    from fem.mesh import snap_kinks
+
+    x = np.array([0.0, 1.0, 2.0, 4.0, 8.0])
+    assert list(snap_kinks(x, [3.9])) == [0.0, 1.0, 2.0, 3.9, 8.0]
+    with pytest.raises(fem.InputError, match="share their nearest node"):
+        snap_kinks(x, [3.7, 4.2])
+    assert list(snap_kinks(x, [9.0])) == list(x)  # beyond the bodies: no node to take
