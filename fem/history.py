@@ -199,8 +199,7 @@ def gap_at(h0: Callable, x: np.ndarray) -> np.ndarray:
         raise InputError(f"h0 returned {_what(raw)} for {x.size} points; need one real gap per "
                          "point (an array of x's shape), h0 >= 0 or +inf where contact is "
                          "impossible")
-    g = np.broadcast_to(raw.astype(float).reshape(-1) if raw.size == x.size else raw.astype(float),
-                        x.shape).astype(float)
+    g = np.broadcast_to(raw.astype(float).ravel(), x.shape).copy()  # x is 1-D
     bad = np.isnan(g) | (
         g < -1e-12 * max(1.0, float(np.max(np.abs(g[np.isfinite(g)]), initial=1.0)))
     )
@@ -447,11 +446,11 @@ def check_stage1_end(model: Model, state: ContactState, h: float,
     their end where h0 goes on beyond: the window misses the contact or is too small; at a
     corner h0 = inf ends the candidates, and the contact may reach it) and be resolved
     (:func:`check_zone_size`)."""
-    x_all, cand = model.disc.interface.x, model.cand
+    cand, h0_all = model.cand, model.h0_all  # h0 at every interface node
     for i0, i1 in runs(state.status > 0):
         for end, beyond in ((i0, cand[i0] - 1), (i1, cand[i1] + 1)):
-            if 0 <= beyond < x_all.size and np.isfinite(model.h0_all[beyond]) and \
-                    end in (0, cand.size - 1):
+            if end in (0, cand.size - 1) and 0 <= beyond < h0_all.size and \
+                    np.isfinite(h0_all[beyond]):
                 raise InputError(
                     f"window too small or misplaced: the contact at P0 reaches the end of the "
                     f"contact candidates at x={model.prob.x[end]:g}, where h0 goes on (the "
