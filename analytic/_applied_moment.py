@@ -14,7 +14,6 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import numpy as np
-from scipy.optimize import brentq
 
 from analytic._continuation import (
     MAX_TOPOLOGY_CHANGES,
@@ -24,6 +23,7 @@ from analytic._continuation import (
     solve_from_guess,
 )
 from analytic._newton import State, beta_for, fresh_state
+from analytic._roots import brentq
 from analytic._sie import Layout, System
 from analytic.errors import ConvergenceError, InputError, TableEndError
 from analytic.profiles import Profile

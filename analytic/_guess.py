@@ -20,8 +20,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
+from analytic._roots import brentq
 from analytic._sie import Batch, Layout
 from analytic.profiles import Profile
 

@@ -13,10 +13,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from analytic._gap import deformed_gap
 from analytic._newton import State, beta_for, fresh_state
+from analytic._roots import brentq
 from analytic._sie import Layout, System
 from analytic.profiles import Profile
 

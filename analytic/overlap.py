@@ -17,10 +17,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from analytic import _validate as check
 from analytic._contour import zone_loads
+from analytic._roots import brentq
 from analytic._sie import Layout, System
 from analytic.errors import InputError
 from analytic.normal import check_problem, load_curve

@@ -21,9 +21,9 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
-from scipy.optimize import brentq
 
 from analytic import _validate as check
+from analytic._roots import brentq
 
 Func = Callable[[np.ndarray], np.ndarray]
 INF = float("inf")

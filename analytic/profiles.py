@@ -14,10 +14,9 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.optimize import brentq
 
 from analytic import _validate as check
+from analytic._roots import brentq
 from analytic.piecewise import (
     INF,
     Func,
@@ -198,6 +197,8 @@ def tabulated(x: Sequence[float], h: Sequence[float], kinks: Sequence[float] = (
     kinks = check.vector("kinks", kinks, 0, lambda v: bool(np.all((v >= x[0]) & (v <= x[-1]))),
                          f"a 1-D sequence of finite numbers within the table "
                          f"[{float(x[0])!r}, {float(x[-1])!r}]")
+    from scipy.interpolate import CubicSpline  # here: it loads scipy.optimize (13 MB)
+
     ks = sorted(float(k) for k in kinks if x[0] < k < x[-1])  # a kink at an end is an end
     cuts = [x[0], *ks, x[-1]]
     pieces = []
@@ -216,7 +217,7 @@ def tabulated(x: Sequence[float], h: Sequence[float], kinks: Sequence[float] = (
                    {"x": x.tolist(), "h": h.tolist(), "kinks": list(ks)})
 
 
-def _cubic_pieces(cs: CubicSpline, reach: tuple[float, float]) -> tuple[Piece, ...]:
+def _cubic_pieces(cs, reach: tuple[float, float]) -> tuple[Piece, ...]:
     """The cubic of every interval of ``cs`` as a polynomial piece continued over ``reach``
     (centred at the interval's left knot, as the spline evaluates it)."""
     return tuple(replace(_poly_piece(cs.c[:, i].tolist(), float(cs.x[i]), float(cs.x[i + 1]),

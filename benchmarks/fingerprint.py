@@ -35,8 +35,9 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-# fem.linsolve loads CHOLMOD with the CPU's BLAS kernels: before scipy.optimize (analytic) does,
-# as in the command line (compare imports it first), so that the FE fingerprints are its numbers.
+# fem.linsolve loads CHOLMOD with the CPU's BLAS kernels: before scipy.optimize (tabulated
+# profiles) does, as in the command line (compare imports it first), so that the FE fingerprints
+# are its numbers.
 import fem.linsolve  # noqa: E402, F401
 
 # isort: split

@@ -15,8 +15,9 @@ compare.report.write_report(cases, out_dir, convergence_cases=None, fig5=True) -
 CaseError: bad case input (CLI exit code 2).
 
 ``fem.linsolve`` is imported first: it loads CHOLMOD with the BLAS kernels named for the CPU,
-which only works before anything else loads it (``scipy.optimize``, which the analytic side
-imports, tries scikit-sparse's CHOLMOD on import).
+which only works before anything else loads it (``scipy.optimize`` tries scikit-sparse's
+CHOLMOD on import; the analytic side loads it only for tabulated profiles, through
+``scipy.interpolate``).
 """
 
 import fem.linsolve  # noqa: F401

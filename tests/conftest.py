@@ -14,7 +14,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # threaded BLAS on 2 cores is 30-100x slower
 
 # fem.linsolve loads CHOLMOD with the CPU's BLAS kernels: before scipy.optimize and
-# scipy.integrate (below, and the analytic side) do, as in the command line.
+# scipy.integrate (below, and tabulated profiles) do, as in the command line.
 import fem.linsolve  # noqa: E402, F401
 
 # isort: split
