@@ -337,8 +337,8 @@ def tensor_ratio_text(rows: list[dict], bar: tuple[float, float] | None = None) 
     return (f"{what} (edge {100 * edge:.4f} %, stick "
             f"{100 * stick:.4f} %) at ring level {best['level']}, growth "
             f"{best['growth']:g}: "
-            f"{ref['history'] / best['history']:.1f}x less history time, "
-            f"{ref['peak'] / best['peak']:.1f}x less peak memory "
+            f"{ref['history'] / best['history']:.2f}x less history time, "
+            f"{ref['peak'] / best['peak']:.2f}x less peak memory "
             f"({ref['fe_peak'] / best['fe_peak']:.1f}x in the FE history alone; "
             f"{ref['fe_memory'] / best['fe_memory']:.1f}x in the FE's own growth above the "
             f"process's {best['base']:.0f} MB of interpreter, libraries and analytic solution), "
@@ -364,7 +364,7 @@ def repeated_ratio_text(ratios: list[tuple]) -> str:
     if not ratios:
         return "no repeated pair ran"
     cols = np.array(ratios)
-    parts = [f"{name} {np.median(c):.1f}x ({c.min():.1f}-{c.max():.1f}x)" for name, c in
+    parts = [f"{name} {np.median(c):.2f}x ({c.min():.2f}-{c.max():.2f}x)" for name, c in
              zip(("history time", "peak memory", "FE's own memory"), cols.T, strict=True)]
     return f"{len(ratios)} alternating pairs, median (range): " + ", ".join(parts)
 

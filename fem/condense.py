@@ -69,10 +69,12 @@ RHS_BLOCK = 256
 #: tests/unit/test_fem_condense.py).  At level 6 a sweep's cost is proportional to its
 #: columns, so wider blocks buy little: CPU ms per column of one sweep of body 1 (1.35M dofs,
 #: two runs) 72-74 / 60-61 / 58 / 50-56 / 60-62 with 8 / 16 / 32 / 48 / 84 columns.  At
-#: cattaneo ring level 3 (growth 1.35) the sweep's two arrays (body dofs x columns each) set
-#: the history's peak: process peak RSS 204-208 / 211 / 217-219 MB and history CPU 0.83-0.95 /
-#: 0.70-0.82 / 0.69-0.75 s with 8 / 12 / 16 columns (three runs each, alternating); 12.
-RECOVERY_BLOCK = 12
+#: cattaneo ring level 3 (growth 1.35) the sweep's arrays (y and CHOLMOD's two copies of it,
+#: body dofs x columns each, handed back after every block) set the process's peak beside the
+#: fields: peak RSS 185-188 / 186-191 / 191-196 MB with 8 / 12 / 16 columns (three runs each,
+#: alternating); the recovery's CPU 0.24 / 0.21 s (8 / 12, best of four in one process): 8, for
+#: issue 28's 4x less memory than the tensor mesh, at 0.03 s of the history's ~0.9 s.
+RECOVERY_BLOCK = 8
 #: Columns of a body's trailing factor block L22 unpacked at a time by the recovery's
 #: triangular solve (:func:`trailing_solve`): a panel of (m x TRIANGLE_PANEL) numbers, not
 #: the whole m x m triangle; wide enough for BLAS-3 speed.
@@ -174,11 +176,15 @@ def with_pair_loads(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> Factor:
     """The factor with ``pair_solve`` as a general solve of the pair loads."""
 
     def pair_solve(lam: np.ndarray, out: np.ndarray | None = None,
-                   rows: np.ndarray | None = None) -> np.ndarray:
+                   rows: np.ndarray | None = None, add: bool = False) -> np.ndarray:
         x = factor.solve(pair_loads(factor.n, f1, f2, lam))
         if out is None:
             return x
-        out[np.arange(factor.n) if rows is None else rows] = x
+        target = np.arange(factor.n) if rows is None else rows
+        if add:
+            out[target] += x
+        else:
+            out[target] = x
         return out
 
     return replace(factor, pair_solve=pair_solve)
@@ -253,20 +259,27 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
         return body_solves(parts, np.asarray(b, dtype=float))
 
     def pair_solve(lam: np.ndarray, out: np.ndarray | None = None,
-                   rows: np.ndarray | None = None) -> np.ndarray:
+                   rows: np.ndarray | None = None, add: bool = False) -> np.ndarray:
         lam = np.atleast_2d(np.asarray(lam, dtype=float).T).T
         out, rows = pair_target(n, lam, out, rows)
         for (idx, perm, chol, panels, signs), sign in zip(parts, (1.0, -1.0), strict=True):
             d = None if signs is None else signs[perm][:, None]  # a mirror: K_2^-1 = D K_1^-1 D
+            return_freed_memory()  # what the caller freed (the far field's basis), beneath
             z = trailing_solve(panels, sign * lam if d is None else sign * d[-lam.shape[0]:] * lam)
             target = rows[idx[perm]]
-            return_freed_memory()  # the last body's sweeps' arrays, beneath this one's
+            return_freed_memory()  # the panels: y's array comes fresh (untouched above z)
+            work = np.zeros((idx.size, min(RECOVERY_BLOCK, lam.shape[1])), order="F")
             for cols in column_blocks(lam.shape[1], RECOVERY_BLOCK):
-                x = backward_solve(chol, z[:, cols], idx.size)
+                x = backward_solve(chol, z[:, cols], idx.size, work)
                 if d is not None:
                     x *= d
-                out[target, cols] = x
+                if add:
+                    out[target, cols] += x
+                else:
+                    out[target, cols] = x
                 del x
+                return_freed_memory()  # CHOLMOD's two copies: one block's at a time
+            del work
         return out
 
     return Factor(backend="cholmod", solve=solve, n=n, pair_solve=pair_solve), C
@@ -352,11 +365,14 @@ def packed_panel(packed: np.ndarray, m: int, c0: int, c1: int) -> np.ndarray:
     return panel
 
 
-def backward_solve(chol, z: np.ndarray, n: int) -> np.ndarray:
+def backward_solve(chol, z: np.ndarray, n: int, work: np.ndarray | None = None) -> np.ndarray:
     """``x = K_b^{-1} [0; f]`` (the body's permuted order, n dofs) from ``z = L22^{-1} f``
     (:func:`trailing_solve`) of loads f (columns) on the m trailing dofs: ``L^T x = y`` with
-    ``y = [0; z]`` (no forward sweep)."""
-    y = np.zeros((n, z.shape[1]), order="F")  # CHOLMOD's layout: no copy on the way in
+    ``y = [0; z]`` (no forward sweep).  ``work``: y's array for the blocks of a sweep (n rows,
+    at least as many columns as z, Fortran order, zero above its last m rows, which are
+    overwritten; CHOLMOD reads it and copies it), None: a new one."""
+    k = z.shape[1]
+    y = np.zeros((n, k), order="F") if work is None else work[:, :k]  # CHOLMOD's layout
     y[-z.shape[0]:] = z
     return chol.solve_Lt(y, use_LDLt_decomposition=False)
 

@@ -34,6 +34,10 @@ import numpy as np
 
 #: Multipole orders kept (0: resultant, 1: first moments, 2: second moments).
 ORDERS = 3
+#: Columns of the lift's solves at a time (of 2 ORDERS): its right-hand sides and CHOLMOD's
+#: two copies of them are of this width (issue 28: the lift set the condensation's peak, 185
+#: MB at cattaneo ring level 3; one more pass through the factor).
+LIFT_BLOCK = ORDERS
 
 
 def log_lower(z: np.ndarray) -> np.ndarray:
@@ -147,14 +151,16 @@ def coupling_loads(coupling: tuple, G: np.ndarray) -> np.ndarray:
 
 def lift(disc, coupling: tuple, factor, free: np.ndarray, x_pairs: np.ndarray) -> FarField:
     """Far-field fields of ``disc`` (boundary='half-plane'): the Flamant multipole data on
-    the prescribed dofs, lifted into the bodies with the bulk factor (2 ORDERS solves;
-    ``coupling``: :func:`coupling_loads`)."""
+    the prescribed dofs, lifted into the bodies with the bulk factor (2 ORDERS solves, by
+    blocks of LIFT_BLOCK; ``coupling``: :func:`coupling_loads`)."""
     xr = 0.5 * float(x_pairs.min() + x_pairs.max())
     dofs = tuple((b.doflocs[:, f], f % 2 == 0) for b, f in zip(disc.bases, disc.fixed, strict=True))
     fixed = np.r_[disc.fixed[0], disc.fixed[1] + disc.bases[0].N]
     G = boundary_fields(dofs, xr, disc.E, disc.nu)
     fields = np.zeros((disc.n_dofs, G.shape[1]))
     fields[fixed] = G
-    lifted = factor.solve(coupling_loads(coupling, G))
-    fields[free] = np.negative(lifted, out=lifted)
+    for cols in (slice(j, j + LIFT_BLOCK) for j in range(0, G.shape[1], LIFT_BLOCK)):
+        lifted = factor.solve(coupling_loads(coupling, G[:, cols]))
+        fields[free, cols] = np.negative(lifted, out=lifted)
+        del lifted
     return FarField(fields=fields, R=moment_matrix(x_pairs, xr), xr=xr)

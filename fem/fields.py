@@ -1,9 +1,10 @@
 """Full-field recovery of every increment from the condensed solution.
 
 Multi-RHS solves with the existing factor give the clamped-top response of both bodies to the
-pair forces of all increments (with CHOLMOD's per-body factors only the backward sweep,
-``Factor.pair_solve``, by blocks of increments: ``fem.condense.RECOVERY_BLOCK``); body 1 then
-gets the plate's rigid motion ``u = u_p - theta y, v = v_p + theta x``. Plate reactions are
+pair forces of all increments, added to their far field (with CHOLMOD's per-body factors
+only the backward sweep, ``Factor.pair_solve``, by blocks of increments:
+``fem.condense.RECOVERY_BLOCK``); body 1 then gets the plate's rigid motion
+``u = u_p - theta y, v = v_p + theta x``. Plate reactions are
 recovered as ``K1 u1`` on the top dofs (the rows of K1 the model kept); stresses are
 projected (L2) onto the nodal basis on demand, the increments asked for together in one
 multi-RHS solve with sparse strain operators.
@@ -23,7 +24,8 @@ from .linsolve import factorize
 
 #: Per strain operator (xx, yy, xy): its (component c, derivative d, factor) terms d_d u_c.
 STRAIN_PARTS = (((0, 0, 1.0),), ((1, 1, 1.0),), ((0, 1, 0.5), (1, 0, 0.5)))
-#: Rows of the recovered fields per block of :func:`add_motions` (even: a node's two dofs).
+#: Rows of the recovered fields per block of :func:`far_field_start` and
+#: :func:`add_plate_motion` (even: a node's two dofs).
 MOTION_ROWS = 8192
 #: Order in which the projector builds the strain operators: eps_xy (twice the entries) first.
 XY_FIRST = (2, 0, 1)
@@ -56,21 +58,24 @@ class FieldRecovery:
         self._projector = {}
 
     @classmethod
-    def from_states(cls, model, states) -> FieldRecovery:
+    def from_states(cls, model, states, U: np.ndarray | None = None) -> FieldRecovery:
         """Recover the full fields of a list of converged contact states (the model of
         :func:`fem.history.build_model`); the sweeps' temporaries are of one block of
-        increments (``fem.condense.RECOVERY_BLOCK``), the numbers those of all at once, and the
-        far field and the plate's motion are added by blocks of rows (:func:`add_motions`)."""
+        increments (``fem.condense.RECOVERY_BLOCK``), the numbers those of all at once.  ``U``:
+        the fields' start, :func:`far_field_start` of the states (None: made here from
+        ``model.far``); the sweeps add the bulk response to it in place, then body 1 gets the
+        plate's motion by blocks of rows (:func:`add_plate_motion`)."""
         disc = model.disc
         lam = np.array([s.lam for s in states]).T
-        U = np.zeros((disc.n_dofs, lam.shape[1]))
+        if U is None:
+            U = far_field_start(disc.n_dofs, model.far, lam)
         if model.factor.pair_solve is not None:  # straight into the free rows of U
-            model.factor.pair_solve(lam, out=U, rows=model.free)
+            model.factor.pair_solve(lam, out=U, rows=model.free, add=True)
         else:
-            U[model.free] = model.factor.solve(pair_loads(model.free.size, model.f1, model.f2,
-                                                          lam))
+            U[model.free] += model.factor.solve(pair_loads(model.free.size, model.f1,
+                                                           model.f2, lam))
         N1 = disc.bases[0].N
-        add_motions(U, disc.bases[0].doflocs, model.far, lam, np.array([s.z for s in states]).T)
+        add_plate_motion(U, disc.bases[0].doflocs, np.array([s.z for s in states]).T)
         U1, U2 = U[:N1], U[N1:]  # views: no second copy of the fields
         return cls(disc, U1, U2, model.factor.backend, model.reaction_rows)
 
@@ -142,23 +147,32 @@ class FieldRecovery:
         return [np.ascontiguousarray(S[:, j::k].T) for j in range(k)]
 
 
-def add_motions(U: np.ndarray, loc: np.ndarray, far, lam: np.ndarray, z: np.ndarray) -> None:
-    """Add to the recovered fields U (all dofs of both bodies x increments, C order) the far
-    field of the pair forces ``lam`` (``far``: ``fem.farfield.FarField``, None: clamped
-    bodies; its :meth:`displacement`) and body 1's rigid motion with the plate ``u = u_p -
-    theta y, v = v_p + theta x`` (``z`` (3, increments), ``loc`` body 1's (2, N1) dof
-    coordinates), by blocks of MOTION_ROWS rows of all increments: contiguous rows of U, no
-    full-field temporary (issue 28)."""
-    n1 = loc.shape[1]
-    moments = None if far is None else far.R @ lam
-    for r0 in range(0, U.shape[0], MOTION_ROWS):
-        r1 = min(r0 + MOTION_ROWS, U.shape[0])
-        if far is not None:
+def far_field_start(n_dofs: int, far, lam: np.ndarray) -> np.ndarray:
+    """The start of the recovered fields (all dofs of both bodies x increments, C order): the
+    far field of the pair forces ``lam`` (``far``: ``fem.farfield.FarField``, its
+    :meth:`displacement`; None, clamped bodies: zeros), by blocks of MOTION_ROWS rows (no
+    full-field temporary).  It comes first so that the far field's basis can go before the
+    backward sweeps, which add the bulk response to it (issue 28: 3.8 MB of the recovery's
+    peak at cattaneo ring level 3; the sums are those of the response plus the far field)."""
+    U = np.zeros((n_dofs, lam.shape[1]))
+    if far is not None:
+        moments = far.R @ lam
+        for r0 in range(0, n_dofs, MOTION_ROWS):
+            r1 = min(r0 + MOTION_ROWS, n_dofs)
             U[r0:r1] += far.fields[r0:r1] @ moments
-        if r0 < n1:  # body 1's x dofs at even rows, y dofs at odd ones (MOTION_ROWS even)
-            b1 = min(r1, n1)
-            U[r0:b1:2] += z[0] - loc[1, r0:b1:2, None] * z[2]
-            U[r0 + 1:b1:2] += z[1] + loc[0, r0 + 1:b1:2, None] * z[2]
+    return U
+
+
+def add_plate_motion(U: np.ndarray, loc: np.ndarray, z: np.ndarray) -> None:
+    """Add to the recovered fields U body 1's rigid motion with the plate ``u = u_p - theta y,
+    v = v_p + theta x`` (``z`` (3, increments), ``loc`` body 1's (2, N1) dof coordinates), by
+    blocks of MOTION_ROWS rows of all increments: contiguous rows of U, no full-field
+    temporary (issue 28)."""
+    n1 = loc.shape[1]
+    for r0 in range(0, n1, MOTION_ROWS):
+        b1 = min(r0 + MOTION_ROWS, n1)  # x dofs at even rows, y dofs at odd ones (MOTION_ROWS even)
+        U[r0:b1:2] += z[0] - loc[1, r0:b1:2, None] * z[2]
+        U[r0 + 1:b1:2] += z[1] + loc[0, r0 + 1:b1:2, None] * z[2]
 
 
 def projection_operators(disc, body: int, mass: csr_matrix) -> list[csr_matrix]:

@@ -471,11 +471,23 @@ def without_factor(model: Model) -> Model:
     return replace(model, factor=None)
 
 
-def recover_fields(model: Model, states):
-    """Full fields of all increments (:class:`fem.fields.FieldRecovery`)."""
+def far_field_first(model: Model, states) -> tuple[np.ndarray, Model]:
+    """(the start of the full fields of all increments: the far field of their pair forces,
+    :func:`fem.fields.far_field_start`; the model without the far field's basis).  The
+    caller drops its model for this one, so that the basis is gone before the backward sweeps
+    at the recovery's peak (issue 28)."""
+    from .fields import far_field_start
+
+    lam = np.array([s.lam for s in states]).T
+    return far_field_start(model.disc.n_dofs, model.far, lam), replace(model, far=None)
+
+
+def recover_fields(model: Model, states, U: np.ndarray):
+    """Full fields of all increments (:class:`fem.fields.FieldRecovery`) from their start U
+    (:func:`far_field_first`)."""
     from .fields import FieldRecovery
 
-    return FieldRecovery.from_states(model, states)
+    return FieldRecovery.from_states(model, states, U)
 
 
 def result_steps(model: Model, schedule, states, fields, P0: float, mu: float) -> tuple:
@@ -535,7 +547,8 @@ def solve_history(
         model = without_compliance(model)
         return_freed_memory()  # the compliance and the contact solver's matrices
         with timed(timings, "recovery"):
-            fields = recover_fields(model, states)
+            U, model = far_field_first(model, states)
+            fields = recover_fields(model, states, U)
             model = without_factor(model)
             steps = result_steps(model, schedule, states, fields, P0, mu)
     hist = FemHistory(

@@ -96,10 +96,11 @@ import_cholmod()
 class Factor:
     """A factorised symmetric positive definite matrix; ``solve(B)`` accepts 1-D or 2-D B.
 
-    ``pair_solve(lam, out=None, rows=None)``, when set (``fem.condense``), gives ``solve`` of
-    the pair loads of the pair forces ``lam`` (columns) by a cheaper route than a general
-    solve; with ``out`` it writes the solution's dof i into ``out[rows[i]]`` (and returns out)
-    instead of allocating it (the recovery fills the full-field array directly).
+    ``pair_solve(lam, out=None, rows=None, add=False)``, when set (``fem.condense``), gives
+    ``solve`` of the pair loads of the pair forces ``lam`` (columns) by a cheaper route than a
+    general solve; with ``out`` it writes the solution's dof i into ``out[rows[i]]`` (adds it
+    with ``add``; and returns out) instead of allocating it (the recovery fills the full-field
+    array, which holds the far field already, directly).
     """
 
     backend: str

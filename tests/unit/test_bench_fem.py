@@ -23,8 +23,8 @@ def test_the_cheapest_ring_run_as_accurate_as_the_finest_tensor_run_sets_the_rat
             row("rings", 3, 2.0, 300.0, 290.0, 90.0, 1e-5, 1e-5, 2e5),
             row("rings", 3, 1.0, 260.0, 250.0, 90.0, 3e-5, 2e-5, 1e5, 1.3)]
     text = bench_fem.tensor_ratio_text(rows)
-    assert "growth 1.3" in text and "5.0x less history time" in text
-    assert "3.3x less peak memory" in text and "3.2x in the FE history alone" in text
+    assert "growth 1.3" in text and "5.00x less history time" in text
+    assert "3.31x less peak memory" in text and "3.2x in the FE history alone" in text
     assert "4.5x in the FE's own growth above the process's 90 MB" in text
     assert "6.0x fewer DOFs" in text
 
@@ -45,7 +45,7 @@ def test_the_issue_bar_admits_a_ring_run_the_tensor_run_would_not():
     assert bench_fem.ratio_pair(rows, bench_fem.ISSUE_L3_ACCURACY)[1]["growth"] == 1.35
     text = bench_fem.tensor_ratio_text(rows, bench_fem.ISSUE_L3_ACCURACY)
     assert text.startswith("issue 28's level-3 accuracy (edge 0.0070 %, stick 0.0090 %) at ring "
-                           "level 3, growth 1.35: 5.0x less history time")
+                           "level 3, growth 1.35: 5.00x less history time")
 
 
 def test_growth_exponent_of_a_power_law():
@@ -55,8 +55,8 @@ def test_growth_exponent_of_a_power_law():
 
 def test_repeated_ratios_give_medians_and_ranges():
     text = bench_fem.repeated_ratio_text([(4.0, 3.2, 4.4), (5.5, 3.4, 4.6), (4.5, 3.3, 4.5)])
-    assert text == ("3 alternating pairs, median (range): history time 4.5x (4.0-5.5x), "
-                    "peak memory 3.3x (3.2-3.4x), FE's own memory 4.5x (4.4-4.6x)")
+    assert text == ("3 alternating pairs, median (range): history time 4.50x (4.00-5.50x), "
+                    "peak memory 3.30x (3.20-3.40x), FE's own memory 4.50x (4.40-4.60x)")
     assert bench_fem.repeated_ratio_text([]) == "no repeated pair ran"
 
 

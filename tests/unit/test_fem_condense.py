@@ -99,6 +99,11 @@ def test_every_backend_has_a_pair_solve(backend):
     assert factor.pair_solve(lam, out=out, rows=rows) is out
     assert np.array_equal(out[rows], factor.pair_solve(lam))
     assert np.all(np.delete(out, rows, axis=0) == 5.0)
+    start = np.random.default_rng(1).normal(size=out.shape)  # add: onto what out holds
+    added = factor.pair_solve(lam, out=start.copy(), rows=rows, add=True)
+    want = start.copy()
+    want[rows] += factor.pair_solve(lam)
+    assert np.array_equal(added, want)
 
 
 def test_recovered_fields_equal_a_coupled_solve_on_a_small_mesh():
@@ -534,3 +539,33 @@ def test_pair_solves_reading_the_factor_in_place_equal_those_of_a_packed_copy(mo
     assert f1.size > 64 and np.array_equal(C, C_ref)
     lam = np.random.default_rng(9).normal(size=(f1.size, 5))
     assert np.array_equal(factor.pair_solve(lam), copied.pair_solve(lam))
+
+
+@pytest.mark.parametrize("layout", ["tensor", "rings"])
+def test_the_far_field_lift_by_blocks_solves_the_bulk_equations(monkeypatch, layout):
+    """fem.farfield.lift, its 2 ORDERS solves by blocks of LIFT_BLOCK columns: the lifted
+    fields take the Flamant data on the prescribed dofs and solve K u = 0 on the free ones
+    (the caller's whole stiffness), and one block of all columns gives the same fields."""
+    import fem.farfield as ff
+
+    E, nu = 1.0, 0.3
+    a = np.sqrt(2 * 3.64 * 0.01 * 100 / np.pi)
+    window = (-1.3 * a, 1.3 * a)
+    tbm, _, disc = assemble_bodies(fem.MeshSpec(level=-2, layout=layout), window, (), E, nu, {})
+    settings = resolve_contact(None, E, tbm.h_min)
+
+    def far_fields() -> np.ndarray:
+        bulk, bare = split_stiffness(disc)
+        model = build_model(bare, bulk, lambda x: x**2 / 200.0, 0.5, window, settings, True,
+                            "cholmod", {})
+        return model.far.fields, model.free
+
+    assert 0 < ff.LIFT_BLOCK < 2 * ff.ORDERS
+    blocks, free = far_fields()
+    monkeypatch.setattr(ff, "LIFT_BLOCK", 2 * ff.ORDERS)
+    whole, _ = far_fields()
+    assert np.allclose(blocks, whole, rtol=0, atol=1e-13 * np.abs(whole).max())
+    K = sp.block_diag(disc.stiffness, format="csr")
+    residual = (K @ blocks)[free]
+    assert np.abs(residual).max() <= 1e-9 * np.abs(K @ np.where(
+        np.isin(np.arange(K.shape[0]), free)[:, None], 0.0, blocks)).max()

@@ -147,9 +147,9 @@ def test_released_scalar_bases_keep_their_dof_coordinates_and_are_built_again():
 
 @pytest.mark.parametrize("rows", [4, 8192])
 def test_far_field_and_plate_motion_are_added_by_blocks_of_rows(monkeypatch, rows):
-    """add_motions: the far field of every dof and body 1's rigid motion with the plate, by
-    blocks of rows (of 4: blocks inside body 1, across its end and in body 2), the numbers of
-    the whole products to rounding, in U itself."""
+    """far_field_start: the far field of every dof, by blocks of rows (of 4: blocks inside
+    body 1, across its end and in body 2), the numbers of the whole product to rounding;
+    add_plate_motion: body 1's rigid motion with the plate, in U itself."""
     import fem.fields as fields
     from fem.farfield import FarField, moment_matrix
 
@@ -160,17 +160,15 @@ def test_far_field_and_plate_motion_are_added_by_blocks_of_rows(monkeypatch, row
                    xr=0.1)
     lam, z = rng.normal(size=(8, k)), rng.normal(size=(3, k))
     loc = np.repeat(rng.normal(size=(2, n1 // 2)), 2, axis=1)  # a node's two dofs, one place
-    U = rng.normal(size=(n, k))
-    want = U + far.displacement(lam)
-    want[0:n1:2] += z[0] - loc[1, 0::2, None] * z[2]
-    want[1:n1:2] += z[1] + loc[0, 1::2, None] * z[2]
-    buffer = U
-    fields.add_motions(U, loc, far, lam, z)
-    assert U is buffer
+    want = far.displacement(lam)
+    U = fields.far_field_start(n, far, lam)
+    assert U.shape == (n, k) and U.flags.c_contiguous
     assert np.allclose(U, want, rtol=0.0, atol=1e-14 * np.abs(want).max())
-    clamped = rng.normal(size=(n, k))
-    plate_only = clamped.copy()
-    plate_only[0:n1:2] += z[0] - loc[1, 0::2, None] * z[2]
-    plate_only[1:n1:2] += z[1] + loc[0, 1::2, None] * z[2]
-    fields.add_motions(clamped, loc, None, lam, z)
-    assert np.array_equal(clamped, plate_only)  # no far field: the plate's motion alone
+    assert np.array_equal(fields.far_field_start(n, None, lam), np.zeros((n, k)))  # clamped
+    start = rng.normal(size=(n, k))
+    moved = start.copy()
+    moved[0:n1:2] += z[0] - loc[1, 0::2, None] * z[2]
+    moved[1:n1:2] += z[1] + loc[0, 1::2, None] * z[2]
+    buffer = start
+    fields.add_plate_motion(start, loc, z)
+    assert start is buffer and np.array_equal(start, moved)  # body 2's rows untouched
