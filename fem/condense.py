@@ -180,14 +180,19 @@ def with_pair_loads(factor: Factor, f1: np.ndarray, f2: np.ndarray) -> Factor:
         x = factor.solve(pair_loads(factor.n, f1, f2, lam))
         if out is None:
             return x
-        target = np.arange(factor.n) if rows is None else rows
-        if add:
-            out[target] += x
-        else:
-            out[target] = x
+        place(out, np.arange(factor.n) if rows is None else rows, x, add)
         return out
 
     return replace(factor, pair_solve=pair_solve)
+
+
+def place(out: np.ndarray, index, x: np.ndarray, add: bool) -> None:
+    """``out[index] = x``, or ``+= x`` with ``add`` (a pair solve onto fields that hold the far
+    field already; ``index`` selects each entry once)."""
+    if add:
+        out[index] += x
+    else:
+        out[index] = x
 
 
 def pair_target(n: int, lam: np.ndarray, out: np.ndarray | None, rows: np.ndarray | None):
@@ -273,10 +278,7 @@ def schur_cholmod(bodies: list, n: int) -> tuple[Factor, np.ndarray]:
                 x = backward_solve(chol, z[:, cols], idx.size, work)
                 if d is not None:
                     x *= d
-                if add:
-                    out[target, cols] += x
-                else:
-                    out[target, cols] = x
+                place(out, (target, cols), x, add)
                 del x
                 return_freed_memory()  # CHOLMOD's two copies: one block's at a time
             del work
