@@ -11,10 +11,11 @@ Moler's ``zeroin``, with SciPy's tolerance convention and errors.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable
 
 #: Default absolute and relative x tolerances and iteration cap (those of scipy.optimize.brentq).
-XTOL, RTOL, MAXITER = 2e-12, 4 * 2.220446049250313e-16, 100
+XTOL, RTOL, MAXITER = 2e-12, 4 * sys.float_info.epsilon, 100
 
 
 def brentq(f: Callable[[float], float], a: float, b: float, *, xtol: float = XTOL,

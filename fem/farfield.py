@@ -32,6 +32,8 @@ from math import factorial
 
 import numpy as np
 
+from .condense import column_blocks
+
 #: Multipole orders kept (0: resultant, 1: first moments, 2: second moments).
 ORDERS = 3
 #: Columns of the lift's solves at a time (of 2 ORDERS): its right-hand sides and CHOLMOD's
@@ -159,7 +161,7 @@ def lift(disc, coupling: tuple, factor, free: np.ndarray, x_pairs: np.ndarray) -
     G = boundary_fields(dofs, xr, disc.E, disc.nu)
     fields = np.zeros((disc.n_dofs, G.shape[1]))
     fields[fixed] = G
-    for cols in (slice(j, j + LIFT_BLOCK) for j in range(0, G.shape[1], LIFT_BLOCK)):
+    for cols in column_blocks(G.shape[1], LIFT_BLOCK):
         lifted = factor.solve(coupling_loads(coupling, G[:, cols]))
         fields[free, cols] = np.negative(lifted, out=lifted)
         del lifted
